@@ -1,0 +1,3 @@
+"""matcher package."""
+
+__all__: list[str] = []

@@ -1,0 +1,3 @@
+"""Dataset writers and readers."""
+
+__all__: list[str] = []
