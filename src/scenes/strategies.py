@@ -1,0 +1,89 @@
+"""Hypothesis strategies for scene specifications, for property tests (ours and yours).
+
+Needs ``hypothesis`` (a test dependency); ``import scenes`` does not import this module.
+
+Examples
+--------
+>>> from hypothesis import given, settings
+>>> from scenes.spec import dumps_json, loads_json
+>>> @settings(max_examples=5, deadline=None, derandomize=True)
+... @given(scene_specs())
+... def test_json_round_trip(spec):
+...     assert loads_json(dumps_json(spec)) == spec
+>>> test_json_round_trip()
+"""
+
+from __future__ import annotations
+
+from hypothesis import strategies as st
+
+from scenes.spec import (
+    OBJECT_KINDS,
+    TEXTURE_KINDS,
+    LightSpec,
+    ObjectSpec,
+    Pose,
+    SceneSpec,
+    TextureSpec,
+)
+
+__all__ = ["texture_specs", "poses", "sizes", "object_specs", "light_specs", "scene_specs"]
+
+_finite = st.floats(allow_nan=False, allow_infinity=False)
+_unit = st.floats(min_value=0.0, max_value=1.0)
+_positive = st.floats(min_value=1e-12, max_value=1e6)
+_seed = st.integers(min_value=0, max_value=2**63 - 1)
+
+
+def _vec3(elements: st.SearchStrategy[float]) -> st.SearchStrategy[tuple[float, float, float]]:
+    return st.tuples(elements, elements, elements)
+
+
+def texture_specs(*, kinds: tuple[str, ...] = TEXTURE_KINDS) -> st.SearchStrategy[TextureSpec]:
+    """Valid :class:`TextureSpec` values of the given ``kinds`` (any finite numbers in range)."""
+    return st.builds(TextureSpec, kind=st.sampled_from(kinds),
+                     frequency=st.floats(min_value=0.0, exclude_min=True, allow_infinity=False),
+                     contrast=_unit, mean=_unit, color=_vec3(_unit), seed=_seed, angle=_finite)
+
+
+def poses() -> st.SearchStrategy[Pose]:
+    """:class:`Pose` values with any finite translation and rotation."""
+    return st.builds(Pose, translation=_vec3(_finite), rotation_deg=_vec3(_finite))
+
+
+@st.composite
+def sizes(draw: st.DrawFn, kind: str) -> tuple[float, ...]:
+    """A valid ``size`` tuple for an object of ``kind``."""
+    out = [draw(_positive) for _ in OBJECT_KINDS[kind]]
+    if kind == "terrain":
+        out[2] = draw(st.floats(min_value=0.0, max_value=1e3))
+    if kind == "moebius":
+        out[1] = out[0] * draw(st.floats(min_value=1e-3, max_value=1.99))
+    return tuple(out)
+
+
+@st.composite
+def object_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = tuple(OBJECT_KINDS),
+                 textures: st.SearchStrategy[TextureSpec] | None = None) -> ObjectSpec:
+    """Valid :class:`ObjectSpec` values (pose, size, texture, name, segments, seed)."""
+    kind = draw(st.sampled_from(kinds))
+    return ObjectSpec(kind, draw(poses()), draw(sizes(kind)),
+                      draw(textures if textures is not None else texture_specs()),
+                      name=draw(st.text(max_size=12)),
+                      segments=draw(st.integers(min_value=3, max_value=4096)), seed=draw(_seed))
+
+
+def light_specs() -> st.SearchStrategy[LightSpec]:
+    """:class:`LightSpec` values with a non-zero direction."""
+    direction = _vec3(_finite).filter(any)
+    return st.builds(LightSpec, direction=direction,
+                     intensity=st.floats(min_value=0.0, allow_infinity=False),
+                     ambient=st.floats(min_value=0.0, allow_infinity=False))
+
+
+def scene_specs(*, max_objects: int = 4) -> st.SearchStrategy[SceneSpec]:
+    """:class:`SceneSpec` values with 1 to ``max_objects`` objects."""
+    return st.builds(SceneSpec, name=st.text(max_size=12),
+                     objects=st.lists(object_specs(), min_size=1, max_size=max_objects).map(tuple),
+                     light=light_specs(), background=_vec3(_unit), seed=_seed,
+                     description=st.text(max_size=40))

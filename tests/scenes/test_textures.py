@@ -1,0 +1,129 @@
+"""Procedural textures: determinism, contrast, frequency, shapes and errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scenes.spec import TextureSpec
+from scenes.textures import MAX_TEXTURE_SIDE, band_limited_noise, make_texture, texture_shape
+
+
+def _dominant_frequency(grey: np.ndarray, extent: tuple[float, float]) -> float:
+    """Radius (cycles per metre) of the peak of the radially averaged power spectrum."""
+    h, w = grey.shape
+    power = np.abs(np.fft.fft2(grey - grey.mean())) ** 2
+    fu = np.fft.fftfreq(w, d=extent[0] / w)
+    fv = np.fft.fftfreq(h, d=extent[1] / h)
+    radius = np.hypot(fv[:, None], fu[None, :]).ravel()
+    step = 1.0 / max(extent)
+    bins = np.rint(radius / step).astype(int)
+    mean_power = np.bincount(bins, power.ravel()) / np.maximum(np.bincount(bins), 1)
+    return float(np.argmax(mean_power) * step)
+
+
+@pytest.mark.parametrize(("frequency", "extent"), [(4.0, (2.0, 2.0)), (10.0, (1.5, 1.0)),
+                                                     (25.0, (1.0, 0.5))])
+def test_noise_dominant_frequency_matches_request(frequency: float, extent) -> None:
+    img = make_texture(TextureSpec(frequency=frequency, contrast=1.0, seed=3), extent=extent)
+    measured = _dominant_frequency(img[:, :, 0].astype(float), extent)
+    assert abs(measured - frequency) <= 0.25 * frequency
+
+
+@pytest.mark.parametrize(("kind", "angle", "axis"), [("stripes", 0.0, "u"), ("stripes", 90.0, "v"),
+                                                       ("checker", 0.0, "both")])
+def test_periodic_patterns_have_the_requested_period(kind: str, angle: float, axis: str) -> None:
+    frequency, extent = 5.0, (2.0, 2.0)  # 10 periods over 2 m
+    grey = make_texture(TextureSpec(kind=kind, frequency=frequency, contrast=1.0, angle=angle),
+                        extent=extent)[:, :, 0].astype(float)
+    h, w = grey.shape
+    spec_u = np.abs(np.fft.rfft(grey, axis=1)).sum(0)  # variation along u (across columns)
+    spec_v = np.abs(np.fft.rfft(grey, axis=0)).sum(1)
+    spec_u[0] = spec_v[0] = 0.0  # ignore the means
+    if axis == "u":
+        assert np.argmax(spec_u) == 10 and spec_v.max() < 1e-6 * spec_u.max()
+    elif axis == "v":
+        assert np.argmax(spec_v) == 10 and spec_u.max() < 1e-6 * spec_v.max()
+    else:  # checker: product of two square waves, odd harmonics combine at (10, 10)
+        power = np.abs(np.fft.fft2(grey - grey.mean()))
+        i, j = np.unravel_index(np.argmax(power), power.shape)
+        assert (min(i, h - i), min(j, w - j)) == (10, 10)
+
+
+def test_stripes_angle_rotates_the_pattern() -> None:
+    grey = make_texture(TextureSpec(kind="stripes", frequency=4.0, contrast=1.0, angle=45.0),
+                        extent=(1.0, 1.0))[:, :, 0].astype(int)
+    # constant along the direction (1, -1) in (u, v): shifting down one row and left one column
+    np.testing.assert_array_equal(grey[1:, :-1], grey[:-1, 1:])
+    assert grey.std() > 50
+
+
+def test_same_seed_same_bytes_other_seed_differs() -> None:
+    for kind in ("noise", "checker", "stripes"):
+        spec = TextureSpec(kind=kind, frequency=12.0, seed=5)
+        a = make_texture(spec, extent=(1.0, 0.5))
+        b = make_texture(TextureSpec(kind=kind, frequency=12.0, seed=5), extent=(1.0, 0.5))
+        c = make_texture(TextureSpec(kind=kind, frequency=12.0, seed=6), extent=(1.0, 0.5))
+        assert a.tobytes() == b.tobytes()
+        assert a.tobytes() != c.tobytes()
+
+
+@pytest.mark.parametrize("kind", ["noise", "checker", "stripes", "constant"])
+def test_contrast_zero_or_constant_kind_gives_a_flat_image(kind: str) -> None:
+    spec = TextureSpec(kind=kind, contrast=0.0 if kind != "constant" else 1.0, mean=0.3,
+                       color=(1.0, 0.5, 0.0), frequency=10.0)
+    img = make_texture(spec, extent=(1.0, 1.0))
+    assert img.dtype == np.uint8 and img.ndim == 3 and img.shape[2] == 3
+    expected = np.rint(255 * 0.3 * np.array([1.0, 0.5, 0.0]))
+    np.testing.assert_array_equal(img.reshape(-1, 3), np.broadcast_to(expected, (img.size // 3, 3)))
+
+
+def test_contrast_scales_amplitude_around_mean() -> None:
+    stds, means = [], []
+    for contrast in (0.2, 0.4, 0.8):
+        grey = make_texture(TextureSpec(kind="checker", frequency=4.0, contrast=contrast,
+                                        mean=0.5), extent=(1.0, 1.0))[:, :, 0].astype(float)
+        stds.append(grey.std())
+        means.append(grey.mean())
+        assert grey.min() >= np.floor(255 * (0.5 - contrast / 2))
+        assert grey.max() <= np.ceil(255 * (0.5 + contrast / 2))
+    np.testing.assert_allclose(np.array(stds) / stds[0], [1, 2, 4], rtol=0.02)
+    np.testing.assert_allclose(means, 127.5, atol=2.5)
+
+
+def test_full_contrast_noise_uses_the_range() -> None:
+    grey = make_texture(TextureSpec(frequency=8.0, contrast=1.0), extent=(2.0, 2.0))[:, :, 0]
+    assert grey.min() == 0 and grey.max() == 255
+    assert abs(float(grey.mean()) - 127.5) < 3
+
+
+def test_shape_follows_extent_and_sampling() -> None:
+    spec = TextureSpec(frequency=10.0)
+    assert texture_shape(spec, extent=(2.0, 1.0)) == (80, 160)  # 8 px per cycle
+    assert make_texture(spec, extent=(2.0, 1.0), pixels_per_metre=20.0).shape == (20, 40, 3)
+    big = texture_shape(TextureSpec(frequency=1000.0), extent=(3.0, 1.0))
+    assert big == (683, MAX_TEXTURE_SIDE)  # capped, aspect kept
+    assert texture_shape(spec, extent=(1e-6, 1e-6)) == (2, 2)
+    assert texture_shape(TextureSpec(kind="constant"), extent=(4.0, 1.0)) == (2, 8)
+
+
+@pytest.mark.parametrize(("kwargs", "pattern"), [
+    ({"extent": (0.0, 1.0)}, "extent must be two finite sizes > 0"),
+    ({"extent": (1.0,)}, r"extent must be \(width, height\)"),
+    ({"extent": (1.0, 1.0), "pixels_per_metre": -1.0}, "pixels_per_metre must be finite and > 0"),
+    ({"extent": (1.0, 1.0), "max_side": 1}, "max_side must be >= 2"),
+])
+def test_bad_arguments(kwargs: dict, pattern: str) -> None:
+    with pytest.raises(ValueError, match=pattern):
+        make_texture(TextureSpec(), **kwargs)
+    with pytest.raises(TypeError, match="spec must be a TextureSpec"):
+        make_texture("noise", extent=(1.0, 1.0))  # type: ignore[arg-type]
+
+
+def test_band_limited_noise_is_normalised_and_periodic() -> None:
+    noise = band_limited_noise((48, 64), frequency=6.0, pixel_size=(1 / 32, 1 / 32),
+                               rng=np.random.default_rng(1))
+    assert abs(noise.mean()) < 1e-12 and noise.std() == pytest.approx(1.0)
+    # periodic: the wrap-around step is no larger than a typical interior step
+    interior = np.abs(np.diff(noise, axis=1)).max()
+    assert np.abs(noise[:, 0] - noise[:, -1]).max() <= interior

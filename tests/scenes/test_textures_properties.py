@@ -1,0 +1,40 @@
+"""Property tests of textures (small extents keep images <= 64 px)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from scenes.spec import TextureSpec
+from scenes.strategies import texture_specs
+
+_small = texture_specs().map(lambda t: TextureSpec(kind=t.kind, frequency=8.0, contrast=t.contrast,
+                                                   mean=t.mean, color=t.color, seed=t.seed,
+                                                   angle=t.angle))
+_extent = st.tuples(st.floats(0.1, 1.0), st.floats(0.1, 1.0))
+
+
+@given(_small, _extent)
+def test_texture_is_deterministic_and_in_range(spec: TextureSpec, extent) -> None:
+    from scenes.textures import make_texture
+
+    a = make_texture(spec, extent=extent)
+    assert a.dtype == np.uint8 and a.shape[2] == 3 and max(a.shape[:2]) <= 64
+    assert a.tobytes() == make_texture(spec, extent=extent).tobytes()
+    # grey level stays within mean +- contrast / 2 (before the tint), rounding aside
+    for channel, tint in enumerate(spec.color):
+        lo = 255 * tint * max(0.0, spec.mean - spec.contrast / 2)
+        hi = 255 * tint * min(1.0, spec.mean + spec.contrast / 2)
+        assert a[:, :, channel].min() >= np.floor(lo) - 1
+        assert a[:, :, channel].max() <= np.ceil(hi) + 1
+
+
+@given(_small, _extent)
+def test_zero_contrast_is_constant(spec: TextureSpec, extent) -> None:
+    from scenes.textures import make_texture
+
+    flat = TextureSpec(kind=spec.kind, frequency=8.0, contrast=0.0, mean=spec.mean,
+                       color=spec.color, seed=spec.seed)
+    img = make_texture(flat, extent=extent)
+    assert (img == img[0, 0]).all()
