@@ -1,0 +1,142 @@
+"""Write a stereo pair in the KITTI 2015 layout (read back by :func:`matcher.io.load_kitti_2015`).
+
+Files written under ``out_root`` for frame ``index`` (``NNNNNN`` = six-digit index)::
+
+    image_2/NNNNNN_10.png      left image
+    image_3/NNNNNN_10.png      right image
+    disp_occ_0/NNNNNN_10.png   left disparity at every pixel with ground truth (mask 128 or 255)
+    disp_noc_0/NNNNNN_10.png   left disparity at non-occluded pixels only (mask 255)
+
+Disparity PNGs are uint16 ``round(d * 256)``, 0 = no ground truth. They can hold at most
+``65535 / 256 = 255.996`` px; a valid disparity below ``1 / 512`` px (which would round to the
+invalid code 0) is stored as 1 (``1 / 256`` px) so that it stays valid.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from matcher._validation import check_ground_truth, check_occlusion_mask
+from matcher.io import encode_png
+from synth.io._atomic import write_all_atomic
+from synth.io.middlebury import check_stereo_images
+
+__all__ = ["KITTI_MAX_DISPARITY", "encode_kitti_disparity", "write_kitti"]
+
+#: Largest disparity a KITTI PNG can store.
+KITTI_MAX_DISPARITY = 65535 / 256
+
+
+def encode_kitti_disparity(disparity: np.ndarray, *, name: str = "disparity") -> np.ndarray:
+    """Convert float disparity (``inf``/NaN = none) to KITTI's uint16 codes.
+
+    Parameters
+    ----------
+    disparity : (H, W) float array
+        Disparity in pixels; finite values must lie in ``[0, 65535 / 256]``.
+    name : str
+        Name used in error messages.
+
+    Returns
+    -------
+    (H, W) uint16 array
+        ``round(d * 256)`` (at least 1) where finite, 0 elsewhere.
+
+    Raises
+    ------
+    ValueError
+        If a finite value is negative or above :data:`KITTI_MAX_DISPARITY`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> encode_kitti_disparity(np.array([[0.0, 1.5, np.inf]])).tolist()
+    [[1, 384, 0]]
+    """
+    d = np.asarray(disparity, dtype=np.float64)
+    finite = np.isfinite(d)
+    out_of_range = finite & ((d < 0) | (d > KITTI_MAX_DISPARITY))
+    if out_of_range.any():
+        i, j = np.argwhere(out_of_range)[0]
+        raise ValueError(
+            f"{name}: KITTI PNGs store disparities in [0, {KITTI_MAX_DISPARITY:.3f}] px, got "
+            f"{d[i, j]} at row {i}, column {j} ({int(out_of_range.sum())} such pixels); "
+            "use the Middlebury layout (PFM) or a smaller baseline/focal length"
+        )
+    codes = np.zeros(d.shape, np.uint16)
+    codes[finite] = np.maximum(np.rint(d[finite] * 256.0), 1).astype(np.uint16)
+    return codes
+
+
+def write_kitti(
+    out_root: str | os.PathLike[str],
+    index: int,
+    *,
+    left: np.ndarray,
+    right: np.ndarray,
+    disp_left: np.ndarray,
+    mask_left: np.ndarray,
+    fsync: bool = True,
+) -> list[Path]:
+    """Write frame ``index`` of a KITTI 2015-style training folder.
+
+    Everything is validated and encoded before the first write (so a disparity KITTI cannot
+    store leaves ``out_root`` untouched), and each file is written atomically.
+
+    Parameters
+    ----------
+    out_root : str or path-like
+        Dataset root; ``image_2/``, ``image_3/``, ``disp_occ_0/``, ``disp_noc_0/`` are created.
+    index : int
+        Frame number, 0..999999.
+    left, right : (H, W, 3) or (H, W) uint8 array
+        Images, RGB order.
+    disp_left : (H, W) float array
+        Left ground truth in pixels; ``inf``/NaN exactly where ``mask_left == 0``; finite values
+        in ``[0, 65535 / 256]``.
+    mask_left : (H, W) uint8 array
+        255 visible in both views, 128 occluded, 0 no ground truth.
+    fsync : bool, default True
+        ``fsync`` each file before renaming it into place.
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``image_2``, ``image_3``, ``disp_occ_0``, ``disp_noc_0`` files, in that order.
+
+    Examples
+    --------
+    >>> import tempfile, numpy as np
+    >>> from matcher.io import load_kitti_2015
+    >>> img = np.zeros((1, 3), np.uint8)
+    >>> d = np.array([[2.5, 4.0, np.inf]])
+    >>> mask = np.array([[255, 128, 0]], np.uint8)
+    >>> with tempfile.TemporaryDirectory() as root:
+    ...     _ = write_kitti(root, 3, left=img, right=img, disp_left=d, mask_left=mask)
+    ...     s = load_kitti_2015(root, 3, occ=False)
+    >>> s.disp_left.tolist(), s.mask_left.tolist()
+    ([[2.5, inf, inf]], [[255, 128, 0]])
+    """
+    if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)) or not 0 <= index <= 999999:
+        raise ValueError(f"index: expected an integer in [0, 999999], got {index!r}")
+    left, right = check_stereo_images(left, right)
+    shape = left.shape[:2]
+    mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)
+    disp = check_ground_truth(disp_left, "disp_left", shape=shape, mask=mask_left)
+    occ = encode_kitti_disparity(disp, name="disp_left")
+    noc = np.where(mask_left == 255, occ, np.uint16(0))
+
+    root = Path(out_root)
+    name = f"{int(index):06d}_10.png"
+    files = {
+        root / "image_2" / name: encode_png(left),
+        root / "image_3" / name: encode_png(right),
+        root / "disp_occ_0" / name: encode_png(occ),
+        root / "disp_noc_0" / name: encode_png(noc),
+    }
+    for path in files:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    return write_all_atomic(files, fsync=fsync)

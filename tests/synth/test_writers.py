@@ -1,0 +1,182 @@
+"""Hand-picked examples for the Middlebury and KITTI writers and the atomic-write helper."""
+
+from __future__ import annotations
+
+import os
+import struct
+
+import cv2
+import numpy as np
+import pytest
+
+from matcher.io import load_kitti_2015, load_middlebury_2014, read_calib
+from synth.io import _atomic
+from synth.io._atomic import atomic_write_bytes
+from synth.io.kitti import KITTI_MAX_DISPARITY, encode_kitti_disparity, write_kitti
+from synth.io.middlebury import write_middlebury
+
+K = np.array([[500.0, 0, 1.5], [0, 500.0, 0.5], [0, 0, 1]])
+CALIB = {"cam0": K, "cam1": K, "doffs": 0.0, "baseline": 120.0, "ndisp": 16}
+
+
+def _frame():
+    left = np.arange(2 * 4 * 3, dtype=np.uint8).reshape(2, 4, 3)
+    right = left[:, ::-1].copy()
+    disp = np.array([[1.0, 2.5, np.inf, 3.25], [0.0, 7.0, 8.0, np.inf]], np.float32)
+    mask = np.array([[255, 128, 0, 255], [255, 255, 128, 0]], np.uint8)
+    disp_right = np.array([[np.inf, 1, 1, 1], [2, 2, np.nan, 2]], np.float32)
+    return left, right, disp, mask, disp_right
+
+
+def _files(root):
+    return sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
+
+
+# --- Middlebury -------------------------------------------------------------------------------
+
+
+def test_write_middlebury_round_trip(tmp_path):
+    left, right, disp, mask, disp_right = _frame()
+    out = tmp_path / "scene"
+    files = write_middlebury(out, left=left, right=right, disp_left=disp, disp_right=disp_right,
+                             mask_left=mask, calib=CALIB)
+    assert [f.name for f in files] == ["im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "mask0nocc.png", "calib.txt"]
+    assert _files(out) == sorted(f.name for f in files)  # no temporary files left behind
+    s = load_middlebury_2014(out)
+    np.testing.assert_array_equal(s.left, left)
+    np.testing.assert_array_equal(s.right, right)
+    np.testing.assert_array_equal(s.disp_left, disp)
+    np.testing.assert_array_equal(s.disp_right, np.where(np.isnan(disp_right), np.inf, disp_right))
+    np.testing.assert_array_equal(s.mask_left, mask)
+    assert (out / "disp0.pfm").read_bytes()[:14] == b"Pf\n4 2\n-1\n" + struct.pack("<f", 0.0)  # bottom row first
+
+
+def test_calib_txt_exact_text(tmp_path):
+    left, right, disp, mask, _ = _frame()
+    write_middlebury(tmp_path, left=left, right=right, disp_left=disp, disp_right=None,
+                     mask_left=mask, calib=CALIB | {"isint": 0})
+    assert (tmp_path / "calib.txt").read_text() == (
+        "cam0=[500 0 1.5; 0 500 0.5; 0 0 1]\n"
+        "cam1=[500 0 1.5; 0 500 0.5; 0 0 1]\n"
+        "doffs=0\n"
+        "baseline=120\n"
+        "width=4\n"
+        "height=2\n"
+        "ndisp=16\n"
+        "isint=0\n"
+        "vmin=0\n"
+        "vmax=8\n"
+    )
+    assert not (tmp_path / "disp1.pfm").exists()
+    assert read_calib(tmp_path / "calib.txt")["cam0"].tolist() == K.tolist()
+
+
+def test_grey_images_and_explicit_vmin_vmax(tmp_path):
+    _, _, disp, mask, _ = _frame()
+    grey = np.full((2, 4), 9, np.uint8)
+    write_middlebury(tmp_path, left=grey, right=grey, disp_left=disp, disp_right=None,
+                     mask_left=mask, calib=CALIB | {"vmin": 0.5, "vmax": 8.25, "width": 4})
+    s = load_middlebury_2014(tmp_path)
+    assert s.left.tolist() == grey.tolist()
+    assert (s.meta["calib"]["vmin"], s.meta["calib"]["vmax"]) == (0.5, 8.25)
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "message"),
+    [
+        ({"left": np.zeros((2, 4, 3), np.float32)}, TypeError, "left: expected a uint8"),
+        ({"right": np.zeros((2, 5, 3), np.uint8)}, ValueError, "same shape"),
+        ({"mask_left": np.full((2, 4), 200, np.uint8)}, ValueError, "codes"),
+        ({"disp_left": np.ones((2, 4), np.float32)}, ValueError, "finite exactly where"),
+        ({"disp_right": -np.ones((2, 4))}, ValueError, "disp_right: expected disparities >= 0"),
+        ({"disp_left": np.ones((2, 4), np.uint8)}, TypeError, "disp_left"),
+        ({"calib": {"cam0": K}}, ValueError, "missing keys"),
+        ({"calib": CALIB | {"width": 5}}, ValueError, r"calib\['width'\]: expected 4"),
+        ({"calib": CALIB | {"cam1": np.eye(2)}}, ValueError, "3x3"),
+    ],
+)
+def test_write_middlebury_refuses_bad_input_before_writing(tmp_path, change, error, message):
+    left, right, disp, mask, disp_right = _frame()
+    args = dict(left=left, right=right, disp_left=disp, disp_right=disp_right, mask_left=mask, calib=CALIB)
+    out = tmp_path / "scene"
+    with pytest.raises(error, match=message):
+        write_middlebury(out, **(args | change))
+    assert not out.exists()
+
+
+# --- KITTI ------------------------------------------------------------------------------------
+
+
+def test_write_kitti_round_trip(tmp_path):
+    left, right, disp, mask, _ = _frame()
+    files = write_kitti(tmp_path, 12, left=left, right=right, disp_left=disp, mask_left=mask)
+    assert [str(f.relative_to(tmp_path)) for f in files] == [
+        "image_2/000012_10.png", "image_3/000012_10.png", "disp_occ_0/000012_10.png", "disp_noc_0/000012_10.png"]
+    assert _files(tmp_path) == sorted(str(f.relative_to(tmp_path)) for f in files)
+    occ = cv2.imread(str(files[2]), cv2.IMREAD_UNCHANGED)
+    noc = cv2.imread(str(files[3]), cv2.IMREAD_UNCHANGED)
+    assert occ.dtype == np.uint16
+    assert occ.tolist() == [[256, 640, 0, 832], [1, 1792, 2048, 0]]  # d = 0 stored as 1 (valid)
+    assert noc.tolist() == [[256, 0, 0, 832], [1, 1792, 0, 0]]
+    s = load_kitti_2015(tmp_path, 12)
+    np.testing.assert_array_equal(s.left, left)
+    np.testing.assert_array_equal(s.right, right)
+    np.testing.assert_array_equal(s.mask_left, mask)
+    np.testing.assert_allclose(s.disp_left, np.where(disp == 0, 1 / 256, disp))
+
+
+def test_kitti_encoding_limits():
+    assert encode_kitti_disparity(np.array([[KITTI_MAX_DISPARITY, 1 / 600, np.nan]])).tolist() == [[65535, 1, 0]]
+    assert encode_kitti_disparity(np.array([[0.5 / 256 + 1e-9, 1.5 / 256]])).tolist() == [[1, 2]]
+
+
+@pytest.mark.parametrize("bad", [256.0, 255.999, 1e9, -0.25])
+def test_write_kitti_refuses_unstorable_disparity_before_writing(tmp_path, bad):
+    left, right, disp, mask, _ = _frame()
+    disp = disp.copy()
+    disp[1, 1] = bad
+    with pytest.raises(ValueError, match="at row 1, column 1"):
+        write_kitti(tmp_path / "k", 0, left=left, right=right, disp_left=disp, mask_left=mask)
+    assert not (tmp_path / "k").exists()
+
+
+def test_write_kitti_bad_index(tmp_path):
+    left, right, disp, mask, _ = _frame()
+    for index in (-1, 10**6, 1.0, True):
+        with pytest.raises(ValueError, match="index"):
+            write_kitti(tmp_path, index, left=left, right=right, disp_left=disp, mask_left=mask)
+
+
+# --- atomic writes ----------------------------------------------------------------------------
+
+
+def test_atomic_write_replaces_existing_file(tmp_path):
+    target = tmp_path / "f.bin"
+    target.write_bytes(b"old")
+    atomic_write_bytes(target, b"new", fsync=False)
+    assert target.read_bytes() == b"new" and _files(tmp_path) == ["f.bin"]
+
+
+def test_atomic_write_failure_keeps_old_content_and_removes_temp(tmp_path, monkeypatch):
+    target = tmp_path / "f.bin"
+    target.write_bytes(b"old")
+
+    def boom(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(_atomic.os, "replace", boom)
+    with pytest.raises(OSError, match="disk full"):
+        atomic_write_bytes(target, b"new")
+    assert target.read_bytes() == b"old" and _files(tmp_path) == ["f.bin"]
+
+
+def test_atomic_write_fsyncs_before_rename(tmp_path, monkeypatch):
+    calls = []
+    real_fsync, real_replace = os.fsync, os.replace
+    monkeypatch.setattr(_atomic.os, "fsync", lambda fd: (calls.append("fsync"), real_fsync(fd)))
+    monkeypatch.setattr(_atomic.os, "replace", lambda a, b: (calls.append("replace"), real_replace(a, b)))
+    atomic_write_bytes(tmp_path / "g", b"x")
+    assert calls == ["fsync", "replace"]
+    calls.clear()
+    atomic_write_bytes(tmp_path / "g", b"y", fsync=False)
+    assert calls == ["replace"]
