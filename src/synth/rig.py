@@ -1,0 +1,367 @@
+"""A rectified stereo rig: pinhole intrinsics, baseline, depth <-> disparity.
+
+The conventions are those of ``docs/conventions.md``: pixel centres on integer
+coordinates, the world frame is the left camera's frame (x right, y down,
+z forward, metres), the right camera sits at ``(baseline, 0, 0)`` and
+``d = fx * baseline / Z``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["StereoRig"]
+
+_REAL = (int, float, np.integer, np.floating)
+_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "baseline", "near", "far")
+
+
+@dataclass(frozen=True)
+class StereoRig:
+    """Intrinsics and baseline of a rectified stereo pair of identical cameras.
+
+    Parameters
+    ----------
+    width, height : int
+        Image size in pixels (both views).
+    fx, fy : float
+        Focal lengths in pixels.
+    cx, cy : float
+        Principal point in pixel coordinates (pixel centres at integers, so the
+        centre of a W x H image is ``((W - 1) / 2, (H - 1) / 2)``).
+    baseline : float
+        Distance between the optical centres in metres; the right camera is at
+        ``(baseline, 0, 0)`` in the left camera's frame.
+    near, far : float
+        Depth range (metres, along the optical axis) the renderer accepts.
+
+    Examples
+    --------
+    >>> rig = StereoRig.default(64, 48)
+    >>> rig.fx, rig.cx, rig.cy
+    (60.0, 31.5, 23.5)
+    >>> float(rig.disparity_from_depth(2.0))
+    3.0
+    """
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    baseline: float
+    near: float = 0.1
+    far: float = 100.0
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise TypeError(
+                    f"StereoRig.{name} must be an int, got {type(value).__name__} {value!r}; "
+                    f"pass a whole number of pixels"
+                )
+            if value <= 0:
+                raise ValueError(
+                    f"StereoRig.{name} must be positive, got {value}; "
+                    f"pass the image {name} in pixels"
+                )
+            object.__setattr__(self, name, int(value))
+        for name in ("fx", "fy", "cx", "cy", "baseline", "near", "far"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, _REAL):
+                raise TypeError(
+                    f"StereoRig.{name} must be a real number, got {type(value).__name__} {value!r}"
+                )
+            if not math.isfinite(value):
+                raise ValueError(f"StereoRig.{name} must be finite, got {value}")
+            object.__setattr__(self, name, float(value))
+        for name in ("fx", "fy", "baseline"):
+            if getattr(self, name) <= 0:
+                unit = "metres" if name == "baseline" else "pixels"
+                raise ValueError(
+                    f"StereoRig.{name} must be positive, got {getattr(self, name)}; "
+                    f"pass a positive value in {unit}"
+                )
+        if not 0 < self.near < self.far:
+            raise ValueError(
+                f"StereoRig needs 0 < near < far, got near={self.near}, far={self.far}; "
+                "pass a positive near plane closer than the far plane"
+            )
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def default(
+        cls,
+        width: int = 640,
+        height: int = 480,
+        *,
+        fx: float | None = None,
+        baseline: float = 0.1,
+    ) -> StereoRig:
+        """A rig with square pixels and a centred principal point.
+
+        Parameters
+        ----------
+        width, height : int
+            Image size in pixels.
+        fx : float, optional
+            Focal length in pixels (``fy = fx``); default ``600 * width / 640``
+            (a horizontal field of view of about 56 degrees).
+        baseline : float
+            Baseline in metres.
+
+        Returns
+        -------
+        StereoRig
+
+        Examples
+        --------
+        >>> StereoRig.default().K()[0]
+        array([600. ,   0. , 319.5])
+        """
+        f = 600.0 * width / 640.0 if fx is None else fx
+        return cls(
+            width=width,
+            height=height,
+            fx=f,
+            fy=f,
+            cx=(width - 1) / 2.0,
+            cy=(height - 1) / 2.0,
+            baseline=baseline,
+        )
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> StereoRig:
+        """Inverse of :meth:`to_dict`; unknown keys raise ``ValueError``.
+
+        Examples
+        --------
+        >>> rig = StereoRig.default(32, 24)
+        >>> StereoRig.from_dict(rig.to_dict()) == rig
+        True
+        """
+        unknown = sorted(set(data) - set(_FIELDS))
+        if unknown:
+            raise ValueError(
+                f"StereoRig.from_dict got unknown keys {unknown}; "
+                f"expected a subset of {list(_FIELDS)}"
+            )
+        return cls(**dict(data))
+
+    # ------------------------------------------------------------------ geometry
+    def K(self) -> np.ndarray:
+        """The (3, 3) float64 intrinsic matrix of either camera.
+
+        Examples
+        --------
+        >>> StereoRig.default(4, 2, fx=2.0).K()
+        array([[2. , 0. , 1.5],
+               [0. , 2. , 0.5],
+               [0. , 0. , 1. ]])
+        """
+        return np.array(
+            [[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]], dtype=np.float64
+        )
+
+    def disparity_from_depth(self, z: np.ndarray | float) -> np.ndarray:
+        """Disparity ``fx * baseline / z`` in pixels, computed in float64.
+
+        Parameters
+        ----------
+        z : array_like of float
+            Depth along the optical axis (metres). ``inf`` (no surface) maps to
+            ``inf`` (invalid), as do ``0``, negative and NaN depths.
+
+        Returns
+        -------
+        d : float64 array, same shape as ``z``
+
+        Examples
+        --------
+        >>> StereoRig.default(64, 48, baseline=0.5).disparity_from_depth([1.0, 30.0, float("inf")])
+        array([30.,  1., inf])
+        """
+        z = np.asarray(z, dtype=np.float64)
+        valid = np.isfinite(z) & (z > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = (self.fx * self.baseline) / z
+        return np.where(valid, d, np.inf)
+
+    def depth_from_disparity(self, d: np.ndarray | float) -> np.ndarray:
+        """Depth ``fx * baseline / d`` in metres, computed in float64.
+
+        Parameters
+        ----------
+        d : array_like of float
+            Disparity in pixels; ``0``, ``inf``, negative and NaN (no match,
+            invalid) all map to ``inf``.
+
+        Returns
+        -------
+        z : float64 array, same shape as ``d``
+
+        Examples
+        --------
+        >>> StereoRig.default(64, 48, baseline=0.5).depth_from_disparity([30.0, 0.0, float("inf")])
+        array([ 1., inf, inf])
+        """
+        d = np.asarray(d, dtype=np.float64)
+        valid = np.isfinite(d) & (d > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = (self.fx * self.baseline) / d
+        return np.where(valid, z, np.inf)
+
+    def plane_disparity(self, normal: np.ndarray, c: float, *, eye: str = "left") -> np.ndarray:
+        """Exact disparity map of the plane ``normal . X = c`` (world = left camera frame).
+
+        At pixel ``(x, y)`` the ray ``r = K^-1 [x, y, 1]`` of the left camera meets
+        the plane at ``1 / Z = (n . r) / c``; the right camera at ``o = (B, 0, 0)``
+        at ``1 / Z = (n . r) / (c - n . o)``. Pixels whose ray meets the plane
+        behind the camera (or never) get ``inf``.
+
+        Parameters
+        ----------
+        normal : (3,) array_like of float
+            Plane normal (any length).
+        c : float
+            Plane offset.
+        eye : {"left", "right"}
+
+        Returns
+        -------
+        d : (height, width) float64 array
+
+        Examples
+        --------
+        >>> rig = StereoRig.default(8, 6)
+        >>> float(rig.plane_disparity([0.0, 0.0, -1.0], -2.0, eye="right")[3, 4])
+        0.375
+        """
+        if eye not in ("left", "right"):
+            raise ValueError(f"eye must be 'left' or 'right', got {eye!r}")
+        n = np.asarray(normal, dtype=np.float64)
+        if n.shape != (3,) or not np.all(np.isfinite(n)) or not np.any(n):
+            raise ValueError(f"normal must be a finite non-zero 3-vector, got {normal!r}")
+        offset = float(c) - (n[0] * self.baseline if eye == "right" else 0.0)
+        x = (np.arange(self.width, dtype=np.float64) - self.cx) / self.fx
+        y = (np.arange(self.height, dtype=np.float64) - self.cy) / self.fy
+        if offset == 0.0:  # the plane contains the optical centre: seen edge-on
+            return np.full((self.height, self.width), np.inf)
+        inv_z = (n[0] * x[None, :] + n[1] * y[:, None] + n[2]) / offset
+        return np.where(inv_z > 0, self.fx * self.baseline * inv_z, np.inf)
+
+    def scaled(self, factor: float) -> StereoRig:
+        """The same cameras sampled at a different resolution.
+
+        Pixel ``j`` covers ``[j - 0.5, j + 0.5]``, so a point at ``x`` maps to
+        ``(x + 0.5) * factor - 0.5``: ``cx' = (cx + 0.5) * factor - 0.5`` and
+        ``fx' = fx * factor`` (likewise for y). Disparities scale by ``factor``.
+
+        Parameters
+        ----------
+        factor : float
+            Positive scale; ``width * factor`` and ``height * factor`` must be
+            whole numbers.
+
+        Returns
+        -------
+        StereoRig
+
+        Examples
+        --------
+        >>> r = StereoRig.default(64, 48).scaled(0.5)
+        >>> (r.width, r.height, r.cx, r.cy) == (32, 24, 15.5, 11.5)
+        True
+        """
+        if isinstance(factor, bool) or not isinstance(factor, _REAL):
+            raise TypeError(f"factor must be a real number, got {type(factor).__name__}")
+        if not (math.isfinite(factor) and factor > 0):
+            raise ValueError(f"factor must be positive and finite, got {factor}")
+        w, h = self.width * factor, self.height * factor
+        if abs(w - round(w)) > 1e-9 or abs(h - round(h)) > 1e-9:
+            raise ValueError(
+                f"factor={factor} gives a {w} x {h} image for a {self.width} x {self.height} rig; "
+                "choose a factor that scales width and height to whole numbers"
+            )
+        return StereoRig(
+            width=int(round(w)),
+            height=int(round(h)),
+            fx=self.fx * factor,
+            fy=self.fy * factor,
+            cx=(self.cx + 0.5) * factor - 0.5,
+            cy=(self.cy + 0.5) * factor - 0.5,
+            baseline=self.baseline,
+            near=self.near,
+            far=self.far,
+        )
+
+    # ------------------------------------------------------------------ serialisation
+    def to_dict(self) -> dict[str, Any]:
+        """Plain ``dict`` of the fields (ints and floats), e.g. for JSON/TOML metadata.
+
+        Examples
+        --------
+        >>> sorted(StereoRig.default(8, 6).to_dict())
+        ['baseline', 'cx', 'cy', 'far', 'fx', 'fy', 'height', 'near', 'width']
+        """
+        return asdict(self)
+
+    def middlebury_calib(
+        self, ndisp: int, vmin: float, vmax: float, doffs: float = 0.0
+    ) -> dict[str, Any]:
+        """The fields of a Middlebury 2014 ``calib.txt`` for this rig.
+
+        Parameters
+        ----------
+        ndisp : int
+            Conservative bound on the number of disparity levels.
+        vmin, vmax : float
+            Tight bounds on the valid disparities (pixels).
+        doffs : float
+            x-difference of the principal points, ``cx1 - cx0`` (Middlebury's
+            ``Z = baseline * f / (d + doffs)``). Images rendered by this rig
+            share one principal point, so leave it 0 unless you shift them.
+
+        Returns
+        -------
+        dict
+            ``cam0``, ``cam1`` ((3, 3) float64 arrays, written as
+            ``"[fx 0 cx; 0 fy cy; 0 0 1]"`` by :func:`matcher.io.format_calib`),
+            ``doffs``, ``baseline`` (millimetres), ``width``, ``height``,
+            ``ndisp``, ``vmin``, ``vmax``, in that order.
+
+        Examples
+        --------
+        >>> StereoRig.default(64, 48).middlebury_calib(16, 1.5, 9.0)["cam0"].tolist()
+        [[60.0, 0.0, 31.5], [0.0, 60.0, 23.5], [0.0, 0.0, 1.0]]
+        """
+        if isinstance(ndisp, bool) or not isinstance(ndisp, (int, np.integer)) or ndisp <= 0:
+            raise ValueError(f"ndisp must be a positive int, got {ndisp!r}")
+        if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 <= vmin <= vmax):
+            raise ValueError(
+                f"need finite 0 <= vmin <= vmax, got vmin={vmin}, vmax={vmax}; "
+                "pass the valid disparity range in pixels"
+            )
+        if not math.isfinite(doffs):
+            raise ValueError(f"doffs must be finite, got {doffs}")
+
+        def cam(cx: float) -> np.ndarray:
+            return np.array([[self.fx, 0.0, cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+        return {
+            "cam0": cam(self.cx),
+            "cam1": cam(self.cx + doffs),
+            "doffs": float(doffs),
+            "baseline": self.baseline * 1000.0,
+            "width": self.width,
+            "height": self.height,
+            "ndisp": int(ndisp),
+            "vmin": float(vmin),
+            "vmax": float(vmax),
+        }

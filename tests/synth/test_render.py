@@ -1,0 +1,179 @@
+"""Renderer: backend selection and errors, lazy GL imports, validation, context reuse."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import scenes
+import trimesh
+from PIL import Image
+
+import synth.render as render_mod
+from synth.pair import render_pair
+from synth.render import GLBackendError, Renderer
+from synth.rig import StereoRig
+
+
+# ---------------------------------------------------------------------------- no GL needed
+def test_unknown_backend_is_a_value_error() -> None:
+    with pytest.raises(ValueError, match=r"one of 'auto', 'egl', 'osmesa'.*'nonsense'"):
+        Renderer(64, 48, backend="nonsense")
+
+
+def test_bad_size_is_a_value_error() -> None:
+    with pytest.raises(ValueError, match="width must be a positive int"):
+        Renderer(0, 48)
+
+
+def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(render_mod, "_platform_in_use", lambda: None)
+    monkeypatch.setattr(render_mod, "_probe", lambda b: f"cannot load lib{b}")
+    with pytest.raises(GLBackendError) as info:
+        Renderer(64, 48, backend="auto")
+    msg = str(info.value)
+    assert isinstance(info.value, RuntimeError)
+    assert "egl: cannot load libegl" in msg and "osmesa: cannot load libosmesa" in msg
+    assert "libegl1 libegl-mesa0 libgl1-mesa-dri" in msg and "libosmesa6" in msg
+
+
+def test_locked_platform_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(render_mod, "_platform_in_use", lambda: "glx")
+    with pytest.raises(GLBackendError, match=r"already imported.*'glx'.*fresh process"):
+        Renderer(64, 48)
+
+
+def test_importing_synth_does_not_import_gl() -> None:
+    """PYOPENGL_PLATFORM must be settable after `import synth`: GL imports are lazy."""
+    code = ("import sys, synth.render, synth.pair, synth.rig; "
+            "print(sorted(m for m in ('OpenGL', 'pyrender') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+# ---------------------------------------------------------------------------- GL
+def _quad(z: float = 2.0, half: float = 2.0) -> trimesh.Trimesh:
+    """Fronto-parallel textured quad: image top half red, bottom half blue."""
+    img = np.zeros((64, 64, 3), dtype=np.uint8)
+    img[:32, :, 0] = 255
+    img[32:, :, 2] = 255
+    v = [[-half, -half, z], [half, -half, z], [half, half, z], [-half, half, z]]
+    uv = [[0, 1], [1, 1], [1, 0], [0, 0]]  # OpenGL uv: v = 1 is image row 0; world y is down
+    visual = trimesh.visual.TextureVisuals(uv=uv, image=Image.fromarray(img))
+    return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], visual=visual, process=False)
+
+
+@pytest.mark.gl
+def test_mesh_list_depth_and_texture_orientation(renderer: Renderer) -> None:
+    rig = StereoRig.default(32, 24)
+    view = renderer.render_view([_quad()], rig, eye="left")
+    assert view.color.shape == (24, 32, 3) and view.color.dtype == np.uint8
+    assert view.depth.shape == (24, 32) and view.depth.dtype == np.float32
+    np.testing.assert_allclose(view.depth, 2.0, rtol=1e-6)
+    top, bottom = view.color[:10].reshape(-1, 3).mean(0), view.color[-10:].reshape(-1, 3).mean(0)
+    assert top[0] > 100 > top[2] and bottom[2] > 100 > bottom[0]
+
+
+@pytest.mark.gl
+def test_no_surface_is_inf(renderer: Renderer) -> None:
+    rig = StereoRig.default(32, 24)
+    view = renderer.render_view([_quad(half=0.2)], rig, eye="right")  # small quad in the middle
+    assert np.isinf(view.depth[0, 0]) and np.isfinite(view.depth[12, 16])
+    pair = render_pair([_quad(half=0.2)], rig, renderer=renderer)
+    assert np.isinf(pair.disp_left[0, 0]) and pair.mask_left[0, 0] == 0
+    assert np.isinf(pair.disp_right[0, 0])
+
+
+@pytest.mark.gl
+def test_input_validation(renderer: Renderer) -> None:
+    rig = StereoRig.default(32, 24)
+    with pytest.raises(ValueError, match="eye must be 'left' or 'right'"):
+        renderer.render_view([_quad()], rig, eye="centre")
+    with pytest.raises(TypeError, match="SceneSpec or a sequence of trimesh.Trimesh"):
+        renderer.render_view("boxes", rig, eye="left")
+    with pytest.raises(TypeError, match="rig must be a StereoRig"):
+        renderer.render_view([_quad()], (32, 24), eye="left")
+    with pytest.raises(ValueError, match="no meshes"):
+        renderer.render_view([], rig, eye="left")
+    with pytest.raises(ValueError, match=r"'mesh\[0\]'.*behind the left camera"):
+        renderer.render_view([_quad(z=-1.0)], rig, eye="left")
+    with pytest.raises(ValueError, match=r"outside the rig's \[near, far\]"):
+        renderer.render_view([_quad(z=200.0)], rig, eye="left")
+
+
+@pytest.mark.gl
+def test_same_scene_and_seed_same_bytes(renderer: Renderer) -> None:
+    rig = StereoRig(width=48, height=32, fx=80.0, fy=80.0, cx=23.5, cy=15.5, baseline=0.1)
+    a = render_pair(scenes.get_preset("flying", seed=7), rig, renderer=renderer)
+    b = render_pair(scenes.get_preset("flying", seed=7), rig, renderer=renderer)
+    for name in ("left", "right", "disp_left", "disp_right", "depth_left", "mask_left"):
+        assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+    c = render_pair(scenes.get_preset("flying", seed=8), rig, renderer=renderer)
+    assert c.left.tobytes() != a.left.tobytes()
+
+
+@pytest.mark.gl
+def test_one_context_for_many_renders(renderer: Renderer, monkeypatch: pytest.MonkeyPatch) -> None:
+    opened = []
+    original = Renderer.__init__
+
+    def spy(self: Renderer, *args: object, **kwargs: object) -> None:
+        opened.append(args)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Renderer, "__init__", spy)
+    rig = StereoRig.default(32, 24)
+    spec = scenes.get_preset("boxes")
+    first = render_pair(spec, rig, renderer=renderer)
+    for _ in range(15):
+        again = render_pair(spec, rig, renderer=renderer)
+        assert again.left.tobytes() == first.left.tobytes()
+        assert again.disp_left.tobytes() == first.disp_left.tobytes()
+    assert opened == []  # every render went through the one context
+    # without a renderer, render_pair opens (and closes) its own: same result
+    own = render_pair(spec, rig)
+    assert len(opened) == 1
+    assert own.left.tobytes() == first.left.tobytes()
+    assert own.disp_left.tobytes() == first.disp_left.tobytes()
+
+
+@pytest.mark.gl
+def test_closed_renderer_refuses() -> None:
+    with Renderer(16, 12) as r:
+        pass
+    with pytest.raises(RuntimeError, match="closed"):
+        r.render_view([_quad()], StereoRig.default(16, 12), eye="left")
+    r.close()  # idempotent
+
+
+_BACKEND_SCRIPT = textwrap.dedent("""
+    import json, sys, hashlib, scenes
+    from synth.pair import render_pair
+    from synth.rig import StereoRig
+    rig = StereoRig.default(32, 24)
+    p = render_pair(scenes.get_preset("slanted_plane"), rig, backend=sys.argv[1])
+    print(json.dumps({"backend": p.meta["backend"],
+                      "disp": hashlib.sha1(p.disp_left.tobytes()).hexdigest(),
+                      "left": p.left.astype(float).tolist()}))
+""")
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_egl_and_osmesa_agree() -> None:
+    """Both backends (each needs its own process) give the same ground truth and colour."""
+    results = {}
+    for backend in ("egl", "osmesa"):
+        out = subprocess.run([sys.executable, "-c", _BACKEND_SCRIPT, backend],
+                             capture_output=True, text=True)
+        if out.returncode != 0:
+            pytest.fail(f"backend {backend} failed:\n{out.stderr[-2000:]}")
+        results[backend] = json.loads(out.stdout)
+        assert results[backend]["backend"] == backend
+    assert results["egl"]["disp"] == results["osmesa"]["disp"]
+    diff = np.abs(np.array(results["egl"]["left"]) - np.array(results["osmesa"]["left"]))
+    assert diff.max() <= 1
