@@ -1,0 +1,147 @@
+"""Benchmark jobs and their tables (``stereoforge bench ...``).
+
+Tables are printed and written as Markdown and CSV (atomically). Speed targets live here, never in
+timed unit tests.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import resource
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+__all__ = ["parse_sizes", "bench_render", "format_markdown", "write_table"]
+
+
+def parse_sizes(text: str) -> list[tuple[int, int]]:
+    """Parse ``"640x480,1280x960"`` into ``[(640, 480), (1280, 960)]``.
+
+    Examples
+    --------
+    >>> parse_sizes("640x480, 32x24")
+    [(640, 480), (32, 24)]
+    """
+    sizes = []
+    for item in text.split(","):
+        parts = item.strip().lower().split("x")
+        if len(parts) != 2 or not all(p.isdigit() and int(p) > 0 for p in parts):
+            raise ValueError(f"bad size {item.strip()!r}: expected WIDTHxHEIGHT, e.g. 640x480")
+        sizes.append((int(parts[0]), int(parts[1])))
+    return sizes
+
+
+def _peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
+
+
+def bench_render(
+    *,
+    sizes: Sequence[tuple[int, int]] = ((640, 480), (1280, 960)),
+    pairs: int = 20,
+    presets: Sequence[str] | None = None,
+    backend: str = "auto",
+    progress: bool = False,
+) -> list[dict]:
+    """Time scene building, rendering (colour + exact GT + masks) and writing, per preset and size.
+
+    Each pair uses a new seed (0, 1, ...), so ``flying`` changes layout; everything runs in this
+    process with one GL context per size. ``pairs_per_cpu_s`` divides by the process CPU time
+    (all threads, including llvmpipe's), i.e. the throughput of one core. Files are written as
+    the dataset job writes them: atomically (temporary name, then rename), without fsync, and
+    without ``preview.png``.
+
+    Returns
+    -------
+    list of dict
+        One row per (preset, size).
+    """
+    from scenes import get_preset, list_presets
+    from synth.export import write_pair
+    from synth.pair import render_pair
+    from synth.render import Renderer
+    from synth.rig import StereoRig
+
+    names = list(presets) if presets is not None else [name for name, _ in list_presets()]
+    rows = []
+    jobs = [(w, h, name) for (w, h) in sizes for name in names]
+    bar = tqdm(total=len(jobs) * pairs, desc="bench render", unit="pair", disable=not progress)
+    for w, h in sizes:
+        rig = StereoRig.default(w, h)
+        with Renderer(w, h, backend=backend) as renderer, tempfile.TemporaryDirectory() as tmp:
+            render_pair(get_preset(names[0], seed=0), rig, renderer=renderer)  # warm-up
+            for name in names:
+                build = draw = write = 0.0
+                cpu0, wall0 = time.process_time(), time.perf_counter()
+                for i in range(pairs):
+                    t0 = time.perf_counter()
+                    spec = get_preset(name, seed=i)
+                    t1 = time.perf_counter()
+                    pair = render_pair(spec, rig, renderer=renderer)
+                    t2 = time.perf_counter()
+                    out = Path(tmp) / f"{name}-{i}"
+                    out.mkdir()
+                    write_pair(pair, out, scene=spec, seed=i, preview=False, fsync=False)
+                    t3 = time.perf_counter()
+                    build, draw, write = build + t1 - t0, draw + t2 - t1, write + t3 - t2
+                    bar.update()
+                wall = time.perf_counter() - wall0
+                cpu = time.process_time() - cpu0
+                rows.append({
+                    "preset": name,
+                    "size": f"{w}x{h}",
+                    "pairs": pairs,
+                    "pairs_per_s": pairs / wall,
+                    "pairs_per_cpu_s": pairs / cpu,
+                    "build_ms": 1e3 * build / pairs,
+                    "render_ms": 1e3 * draw / pairs,
+                    "write_ms": 1e3 * write / pairs,
+                    "peak_rss_mb": _peak_rss_mb(),
+                })
+    bar.close()
+    return rows
+
+
+def _cell(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}" if abs(value) < 10 else f"{value:.1f}"
+    return str(value)
+
+
+def format_markdown(rows: Sequence[dict]) -> str:
+    """A Markdown table of ``rows`` (the keys of the first row are the columns).
+
+    Examples
+    --------
+    >>> print(format_markdown([{"a": 1, "b": 2.5}]))
+    | a | b |
+    |---|---|
+    | 1 | 2.5 |
+    """
+    if not rows:
+        return "(no rows)"
+    keys = list(rows[0].keys())
+    lines = ["| " + " | ".join(keys) + " |", "|" + "|".join("---" for _ in keys) + "|"]
+    lines += ["| " + " | ".join(_cell(r.get(k, "")) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def write_table(rows: Sequence[dict], out: Path, name: str) -> str:
+    """Write ``rows`` to ``out/<name>.md`` and ``out/<name>.csv`` atomically; return the Markdown."""
+    from synth.io._atomic import atomic_write_bytes
+
+    out.mkdir(parents=True, exist_ok=True)
+    text = format_markdown(rows)
+    buf = io.StringIO()
+    if rows:
+        writer = csv.DictWriter(buf, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    atomic_write_bytes(out / f"{name}.md", (text + "\n").encode())
+    atomic_write_bytes(out / f"{name}.csv", buf.getvalue().encode())
+    return text + f"\n\nwritten: {out / (name + '.md')}, {out / (name + '.csv')}"

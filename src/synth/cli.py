@@ -1,0 +1,200 @@
+"""The ``stereoforge`` command line: a thin click layer, one function per subcommand.
+
+Every subcommand parses its options and calls one library function; errors in the input are
+reported as ``Error: ...`` with exit status 2 (click's convention for usage errors) and no
+traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+__all__ = ["main"]
+
+
+def _fail(exc: Exception) -> None:
+    raise click.UsageError(str(exc)) from exc
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="stereoforge")
+def main() -> None:
+    """stereoforge: labelled stereo data with exact ground truth, and census matchers."""
+
+
+# --------------------------------------------------------------------------- scenes / rendering
+@main.command()
+def presets() -> None:
+    """List the built-in scenes with a one-line description each."""
+    from scenes import list_presets
+
+    rows = list_presets()
+    width = max(len(name) for name, _ in rows)
+    for name, description in rows:
+        click.echo(f"{name:<{width}}  {description}")
+
+
+@main.command()
+@click.argument("scene")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Output directory (must be empty unless --overwrite).")
+@click.option("--width", default=640, show_default=True, type=click.IntRange(min=1))
+@click.option("--height", default=480, show_default=True, type=click.IntRange(min=1))
+@click.option("--fx", default=None, type=float, help="Focal length in pixels [default: 600·width/640].")
+@click.option("--baseline", default=0.1, show_default=True, type=float, help="Baseline in metres.")
+@click.option("--seed", default=None, type=int, help="Seed of a preset [default: 0].")
+@click.option("--format", "fmt", default="middlebury", show_default=True,
+              type=click.Choice(["middlebury", "kitti"]))
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+@click.option("--overwrite", is_flag=True, help="Write into a non-empty output directory.")
+def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite) -> None:
+    """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
+    from synth.export import prepare_output_dir, resolve_scene, write_pair
+    from synth.pair import render_pair
+    from synth.rig import StereoRig
+
+    try:
+        spec, seed = resolve_scene(scene, seed=seed)
+        rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
+        pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
+        out = prepare_output_dir(out, overwrite=overwrite)
+        written = write_pair(pair, out, scene=spec, seed=seed, fmt=fmt)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
+    click.echo(f"wrote {len(written)} files to {out}")
+
+
+@main.command()
+@click.option("--out", "out", default="out/demo", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--width", default=320, show_default=True, type=click.IntRange(min=16))
+@click.option("--height", default=240, show_default=True, type=click.IntRange(min=16))
+@click.option("--seed", default=0, show_default=True, type=int)
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+@click.option("--overwrite", is_flag=True, help="Write into a non-empty output directory.")
+def demo(out, width, height, seed, backend, overwrite) -> None:
+    """Render every preset into OUT/<preset>/ and draw OUT/contact_sheet.png."""
+    from synth.demo import run_demo
+
+    try:
+        sheet = run_demo(out, width=width, height=height, seed=seed, backend=backend,
+                         overwrite=overwrite, progress=True)
+    except ValueError as exc:
+        _fail(exc)
+    click.echo(f"contact sheet: {sheet}")
+
+
+# --------------------------------------------------------------------------- matching
+@main.command("match")
+@click.argument("left", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("right", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--method", default="ct", show_default=True,
+              type=click.Choice(["ct", "sct", "bm", "sgbm"]))
+@click.option("--window", default=9, show_default=True, type=int, help="Odd window size.")
+@click.option("--max-disp", "max_disp", default=64, show_default=True, type=int,
+              help="Number of disparities searched: d = 0 .. max-disp - 1.")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Disparity map to write (.pfm, inf where invalid).")
+@click.option("--lr-check", is_flag=True, help="Left-right consistency check (failures become inf).")
+@click.option("--subpixel", is_flag=True, help="Parabola subpixel refinement.")
+@click.option("--aggregate", default=None, type=int, help="Box aggregation window (default: none).")
+def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, aggregate) -> None:
+    """Match LEFT and RIGHT images and write the left disparity map to --out."""
+    import time
+
+    from matcher import match
+    from matcher.io import read_image, write_pfm
+
+    try:
+        left_img, right_img = read_image(left), read_image(right)
+        t0 = time.perf_counter()
+        result = match(left_img, right_img, method=method, window=window, max_disparity=max_disp,
+                       lr_check=lr_check, subpixel=subpixel, aggregate=aggregate)
+        seconds = time.perf_counter() - t0
+        if out.suffix.lower() != ".pfm":
+            raise ValueError(f"--out must be a .pfm file (got {out.name})")
+        write_pfm(out, result.disparity)
+    except (ValueError, FileNotFoundError, TypeError) as exc:
+        _fail(exc)
+    invalid = 100.0 * float((~(result.disparity < float("inf"))).mean())
+    click.echo(f"{method} {window}x{window} D={max_disp}: {seconds * 1e3:.1f} ms, "
+               f"invalid {invalid:.2f} %, wrote {out}")
+    if result.ops is not None:
+        click.echo(f"operations: {result.ops}")
+
+
+@main.command("eval")
+@click.argument("disp", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("gt", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--gt-divisor", default=None, type=float,
+              help="Divide an 8/16-bit PNG ground truth by this (e.g. 3 for Middlebury third size).")
+@click.option("--disp-divisor", default=None, type=float, help="Same, for a PNG estimate.")
+@click.option("--mask", default=None, type=click.Path(dir_okay=False, path_type=Path),
+              help="Occlusion mask PNG (255 = non-occluded); adds the nonocc region.")
+@click.option("--delta", default=3.0, show_default=True, type=float, help="PoBMP error threshold (px).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json) -> None:
+    """Compare an estimated disparity map DISP with the ground truth GT (PFM or PNG)."""
+    from synth.evaluate import evaluate_files
+
+    try:
+        report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
+                                mask=mask, delta=delta)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
+    if as_json:
+        click.echo(json.dumps(report, indent=2, sort_keys=True))
+        return
+    keys = list(next(iter(report.values())).keys())
+    click.echo("region   " + " ".join(f"{k:>9}" for k in keys))
+    for region, metrics in report.items():
+        click.echo(f"{region:<8} " + " ".join(f"{metrics[k]:>9.3f}" if isinstance(metrics[k], float)
+                                              else f"{metrics[k]:>9}" for k in keys))
+
+
+# --------------------------------------------------------------------------- benchmarks
+@main.group()
+def bench() -> None:
+    """Benchmarks: print a table and write it (Markdown and CSV) under --out."""
+
+
+@bench.command("render")
+@click.option("--out", "out", default="out/bench", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--pairs", default=20, show_default=True, type=click.IntRange(min=1),
+              help="Pairs rendered per preset and size.")
+@click.option("--sizes", default="640x480,1280x960", show_default=True)
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+def bench_render_cmd(out, pairs, sizes, backend) -> None:
+    """Pairs per second for every preset: render + GT + masks + writing, one process."""
+    from synth.bench import bench_render, parse_sizes, write_table
+
+    try:
+        rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend, progress=True)
+    except ValueError as exc:
+        _fail(exc)
+    click.echo(write_table(rows, Path(out), "render"))
+
+
+@bench.command("match")
+@click.option("--out", "out", default="out/bench", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--repeats", default=3, show_default=True, type=click.IntRange(min=1))
+def bench_match_cmd(out, repeats) -> None:
+    """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
+    from matcher.bench import bench_match
+    from synth.bench import write_table
+
+    rows = bench_match(repeats=repeats)
+    click.echo(write_table(rows, Path(out), "match"))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

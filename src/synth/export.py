@@ -1,0 +1,201 @@
+"""Write one rendered stereo pair to disk: dataset layout, ``scene.json`` and ``preview.png``.
+
+This is the library function behind ``stereoforge render`` (and the demo); the CLI only parses.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from scenes import SceneSpec, get_preset, load_scene, scene_to_dict
+from synth.io._atomic import atomic_write_bytes
+from synth.io.kitti import write_kitti
+from synth.io.middlebury import write_middlebury
+from synth.pair import StereoPair
+from synth.preview import preview_image
+from synth.rig import StereoRig
+
+__all__ = ["FORMATS", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for", "write_pair"]
+
+FORMATS = ("middlebury", "kitti")
+
+
+class OutputDirError(ValueError):
+    """The output directory cannot be used as asked."""
+
+
+def resolve_scene(scene: str, *, seed: int | None = None) -> tuple[SceneSpec, int]:
+    """A preset name or a scene file (``.toml``/``.json``) to a scene and its seed.
+
+    Parameters
+    ----------
+    scene : str
+        Preset name (see ``stereoforge presets``) or path to a scene file.
+    seed : int, optional
+        Seed of a preset (default 0). A scene file carries its own seeds, so passing ``seed``
+        with a file is an error.
+
+    Returns
+    -------
+    (SceneSpec, int)
+    """
+    path = Path(scene)
+    if path.suffix.lower() in (".toml", ".json"):
+        if not path.is_file():
+            raise FileNotFoundError(f"scene file {path} does not exist")
+        if seed is not None:
+            raise ValueError(
+                f"--seed applies to presets only; the scene file {path} fixes its own seeds "
+                "(edit its 'seed' fields instead)"
+            )
+        spec = load_scene(path)
+        return spec, spec.seed
+    seed = 0 if seed is None else int(seed)
+    return get_preset(scene, seed=seed), seed
+
+
+def prepare_output_dir(out: str | Path, *, overwrite: bool = False) -> Path:
+    """Make ``out`` if needed; refuse a directory holding other content unless ``overwrite``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = prepare_output_dir(Path(tempfile.mkdtemp()) / "new")
+    >>> d.is_dir()
+    True
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputDirError(f"output path {out} exists and is not a directory; choose another --out")
+    if out.is_dir() and not overwrite:
+        entries = sorted(p.name for p in out.iterdir())
+        if entries:
+            shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
+            raise OutputDirError(
+                f"output directory {out} already holds {len(entries)} entries ({shown}); "
+                "choose an empty directory or pass --overwrite"
+            )
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def calib_for(pair: StereoPair) -> dict:
+    """Middlebury ``calib.txt`` fields for a rendered pair (ndisp, vmin, vmax from its GT).
+
+    ``vmin``/``vmax`` bound the finite left and right disparities (floor/ceil); ``ndisp`` is
+    ``vmax + 1`` rounded up to a multiple of 16, as Middlebury's conservative search bound.
+    """
+    finite = [d[np.isfinite(d)] for d in (pair.disp_left, pair.disp_right)]
+    values = np.concatenate(finite) if any(f.size for f in finite) else np.zeros(1)
+    vmin = int(math.floor(float(values.min())))
+    vmax = int(math.ceil(float(values.max())))
+    ndisp = int(16 * math.ceil((vmax + 1) / 16))
+    return pair.rig.middlebury_calib(ndisp=ndisp, vmin=vmin, vmax=vmax)
+
+
+def _version() -> str:
+    try:
+        return metadata.version("stereoforge")
+    except metadata.PackageNotFoundError:  # running from a source tree
+        return "unknown"
+
+
+def _jsonable(value):
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+def write_pair(
+    pair: StereoPair,
+    out: str | Path,
+    *,
+    scene: SceneSpec,
+    seed: int,
+    fmt: str = "middlebury",
+    index: int = 0,
+    preview: bool = True,
+    fsync: bool = True,
+) -> list[Path]:
+    """Write ``pair`` in a dataset layout, plus ``scene.json`` and (optionally) ``preview.png``.
+
+    Every file is written atomically (temporary name, then rename).
+
+    Parameters
+    ----------
+    pair : StereoPair
+    out : str or Path
+        Existing directory (see :func:`prepare_output_dir`).
+    scene : SceneSpec
+        The fully resolved scene, stored in ``scene.json`` with the rig and seed.
+    seed : int
+    fmt : {"middlebury", "kitti"}
+    index : int
+        Frame index in the KITTI layout.
+    preview : bool
+        Also write ``preview.png`` (left, right, disparity, mask).
+    fsync : bool
+        Flush every file to disk before its rename (survives power loss). Without it a file is
+        still never half-written after a crash of the process, since it appears only by rename.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format {fmt!r}; valid formats: {', '.join(FORMATS)}")
+    out = Path(out)
+    if fmt == "middlebury":
+        written = list(
+            write_middlebury(
+                out,
+                left=pair.left,
+                right=pair.right,
+                disp_left=pair.disp_left,
+                disp_right=pair.disp_right,
+                mask_left=pair.mask_left,
+                calib=calib_for(pair),
+                fsync=fsync,
+            )
+        )
+    else:
+        written = list(
+            write_kitti(out, index, left=pair.left, right=pair.right, disp_left=pair.disp_left,
+                        mask_left=pair.mask_left, fsync=fsync)
+        )
+    record = {
+        "stereoforge_version": _version(),
+        "format": fmt,
+        "seed": int(seed),
+        "rig": pair.rig.to_dict(),
+        "scene": scene_to_dict(scene),
+        "render": _jsonable(dict(pair.meta)),
+    }
+    scene_json = out / "scene.json"
+    atomic_write_bytes(
+        scene_json, (json.dumps(record, indent=2, sort_keys=True) + "\n").encode(), fsync=fsync
+    )
+    written.append(scene_json)
+    if preview:
+        img = preview_image(pair.left, pair.right, pair.disp_left, pair.mask_left)
+        ok, buf = cv2.imencode(".png", img[..., ::-1], [cv2.IMWRITE_PNG_COMPRESSION, 1])
+        if not ok:
+            raise RuntimeError("OpenCV could not encode preview.png")
+        atomic_write_bytes(out / "preview.png", buf.tobytes(), fsync=fsync)
+        written.append(out / "preview.png")
+    return written
