@@ -1,0 +1,142 @@
+"""The command line: each subcommand on small inputs, and its errors on bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from matcher.io import read_pfm, write_pfm
+from scenes import ObjectSpec, Pose, SceneSpec, dump_scene, list_presets
+from synth.cli import main
+
+
+def _run(*args: str):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def test_presets_lists_every_preset_with_a_description():
+    result = _run("presets")
+    assert result.exit_code == 0
+    lines = result.output.strip().splitlines()
+    assert [line.split()[0] for line in lines] == [name for name, _ in list_presets()]
+    assert all(len(line.split(maxsplit=1)) == 2 for line in lines)
+
+
+def test_render_unknown_preset_lists_valid_ones(tmp_path):
+    result = _run("render", "no_such_scene", "--out", tmp_path / "o")
+    assert result.exit_code == 2
+    assert "unknown preset 'no_such_scene'" in result.output
+    assert "fronto_plane" in result.output
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [("--baseline", "-0.1", "baseline"), ("--fx", "0", "fx")],
+)
+def test_render_rejects_bad_rig_and_writes_nothing(tmp_path, option, value, message):
+    result = _run("render", "fronto_plane", "--out", tmp_path / "o", option, value)
+    assert result.exit_code == 2
+    assert message in result.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_render_seed_with_scene_file_is_refused(tmp_path):
+    path = dump_scene(
+        SceneSpec(name="one", objects=(ObjectSpec(kind="plane", pose=Pose((0, 0, 3)), size=(8, 6)),)),
+        tmp_path / "one.toml",
+    )
+    result = _run("render", path, "--seed", "3", "--out", tmp_path / "o")
+    assert result.exit_code == 2 and "--seed applies to presets only" in result.output
+
+
+@pytest.mark.gl
+def test_render_refuses_object_behind_camera(tmp_path, renderer):
+    path = dump_scene(
+        SceneSpec(name="behind", objects=(ObjectSpec(kind="plane", pose=Pose((0, 0, -3)), size=(2, 2)),)),
+        tmp_path / "behind.json",
+    )
+    result = _run("render", path, "--out", tmp_path / "o", "--width", 32, "--height", 24)
+    assert result.exit_code == 2
+    assert "behind the camera" in result.output or "near" in result.output
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.gl
+def test_render_writes_middlebury_layout_and_refuses_non_empty_dir(tmp_path, renderer):
+    out = tmp_path / "sp"
+    args = ("render", "slanted_plane", "--out", out, "--width", 64, "--height", 48, "--seed", 2)
+    result = _run(*args)
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["calib.txt", "disp0.pfm", "disp1.pfm", "im0.png", "im1.png",
+                     "mask0nocc.png", "preview.png", "scene.json"]
+    record = json.loads((out / "scene.json").read_text())
+    assert record["seed"] == 2 and record["rig"]["width"] == 64
+    assert record["scene"]["name"] == "slanted_plane"
+    disp = read_pfm(out / "disp0.pfm")
+    assert disp.shape == (48, 64) and np.isfinite(disp).all()
+
+    again = _run(*args)
+    assert again.exit_code == 2 and "--overwrite" in again.output
+    assert _run(*args, "--overwrite").exit_code == 0
+
+
+@pytest.mark.gl
+def test_render_kitti_layout(tmp_path, renderer):
+    out = tmp_path / "k"
+    result = _run("render", "boxes", "--out", out, "--format", "kitti", "--width", 64, "--height", 48)
+    assert result.exit_code == 0, result.output
+    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0"):
+        assert (out / sub / "000000_10.png").is_file()
+    occ = cv2.imread(str(out / "disp_occ_0" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
+    assert occ.dtype == np.uint16 and occ.max() > 0
+
+
+def _shifted_pair(tmp_path: Path, shift: int = 4):
+    rng = np.random.default_rng(0)
+    strip = rng.integers(0, 256, size=(40, 80 + shift), dtype=np.uint8)
+    left, right = strip[:, :80], strip[:, shift : shift + 80]
+    cv2.imwrite(str(tmp_path / "l.png"), left)
+    cv2.imwrite(str(tmp_path / "r.png"), right)
+    gt = np.full((40, 80), float(shift), dtype=np.float32)
+    gt[:, :shift] = np.inf
+    write_pfm(tmp_path / "gt.pfm", gt)
+    return tmp_path / "l.png", tmp_path / "r.png", tmp_path / "gt.pfm"
+
+
+def test_match_then_eval_recovers_a_shift(tmp_path):
+    left, right, gt = _shifted_pair(tmp_path)
+    out = tmp_path / "d.pfm"
+    result = _run("match", left, right, "--method", "ct", "--window", 5, "--max-disp", 16, "--out", out)
+    assert result.exit_code == 0, result.output
+    ev = _run("eval", out, gt, "--json")
+    assert ev.exit_code == 0, ev.output
+    report = json.loads(ev.output)
+    # the interior is exact; the columns near the left border may be wrong but few
+    assert report["all"]["pobmp"] < 5.0
+    assert report["all"]["n_pixels"] == 40 * 76
+
+
+def test_match_rejects_even_window(tmp_path):
+    left, right, _ = _shifted_pair(tmp_path)
+    result = _run("match", left, right, "--window", 4, "--out", tmp_path / "d.pfm")
+    assert result.exit_code == 2 and "window" in result.output and not (tmp_path / "d.pfm").exists()
+
+
+def test_match_rejects_unreadable_file(tmp_path):
+    (tmp_path / "bad.png").write_bytes(b"not a png")
+    result = _run("match", tmp_path / "bad.png", tmp_path / "bad.png", "--out", tmp_path / "d.pfm")
+    assert result.exit_code == 2 and "bad.png" in result.output
+
+
+def test_eval_rejects_corrupt_pfm(tmp_path):
+    (tmp_path / "x.pfm").write_bytes(b"Pf\n4 4\n-1\n\x00\x00")
+    _, _, gt = _shifted_pair(tmp_path)
+    result = _run("eval", tmp_path / "x.pfm", gt)
+    assert result.exit_code == 2 and "x.pfm" in result.output
