@@ -1,0 +1,228 @@
+"""Benchmark logic for :func:`matcher.match`: census vs OpenCV StereoBM / StereoSGBM.
+
+No CLI here (a thin command can call :func:`bench_match` and print :func:`format_rows`).
+Timings are wall-clock medians over ``repeats`` runs after one warm-up run (which also triggers
+numba compilation or cache loading), on a synthetic textured pair with a known constant shift.
+"""
+
+from __future__ import annotations
+
+import gc
+import time
+import tracemalloc
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from matcher.match import match
+
+__all__ = ["BenchRow", "bench_match", "format_rows", "peak_memory", "textured_pair"]
+
+#: (label, method, window) of the runs timed by :func:`bench_match`.
+RUNS: tuple[tuple[str, str, int], ...] = (
+    ("CT 5x5", "ct", 5),
+    ("CT 9x9", "ct", 9),
+    ("CT 21x21", "ct", 21),
+    ("SCT 21x21", "sct", 21),
+    ("StereoBM 9", "bm", 9),
+    ("StereoSGBM 5", "sgbm", 5),
+)
+
+
+@dataclass(frozen=True)
+class BenchRow:
+    """One timing: ``seconds`` (median) and ``best`` (fastest run), the median's ratios to the SGBM
+    and BM runs of the same size, and the share of pixels within 1 px of the true shift
+    (excluding the left band ``x < max_disparity``)."""
+
+    label: str
+    width: int
+    height: int
+    max_disparity: int
+    seconds: float
+    ratio_sgbm: float
+    ratio_bm: float
+    accuracy: float
+    best: float
+
+
+def textured_pair(
+    width: int, height: int, *, shift: int, rng: np.random.Generator | int | None = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A synthetic rectified pair: multi-scale random texture, left = right shifted by ``shift``.
+
+    Left pixel ``x`` shows what right pixel ``x - shift`` shows (plus independent noise of one
+    grey level), so the true disparity is ``shift`` everywhere (``x >= shift``).
+
+    Returns
+    -------
+    left, right : (height, width) uint8 arrays
+
+    Examples
+    --------
+    >>> left, right = textured_pair(40, 30, shift=5, rng=1)
+    >>> left.shape, right.dtype
+    ((30, 40), dtype('uint8'))
+    """
+    gen = np.random.default_rng(rng)
+    tex = np.zeros((height, width + shift), np.float64)
+    for sigma, amp in ((0.0, 0.5), (1.5, 1.0), (4.0, 1.5), (12.0, 2.0)):
+        layer = gen.standard_normal(tex.shape)
+        if sigma > 0:
+            layer = cv2.GaussianBlur(layer, (0, 0), sigma)
+            layer /= layer.std() + 1e-12
+        tex += amp * layer
+    tex = (tex - tex.mean()) / tex.std() * 40.0 + 128.0
+    left = tex[:, :width] + gen.normal(0.0, 1.0, (height, width))
+    right = tex[:, shift : shift + width] + gen.normal(0.0, 1.0, (height, width))
+
+    def to8(a: np.ndarray) -> np.ndarray:
+        return np.clip(np.rint(a), 0, 255).astype(np.uint8)
+
+    return to8(left), to8(right)
+
+
+def _time(fn, repeats: int) -> tuple[float, float]:
+    """(median, min) wall-clock seconds of ``repeats`` runs after one warm-up run."""
+    fn()  # warm-up: compile / load caches, OpenCV thread pool
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), float(np.min(times))
+
+
+def bench_match(
+    *,
+    sizes: Sequence[tuple[int, int, int]] = ((640, 480, 64), (1280, 960, 128)),
+    repeats: int = 3,
+    rng: int = 0,
+) -> list[BenchRow]:
+    """Time the census matchers against OpenCV on synthetic pairs.
+
+    Parameters
+    ----------
+    sizes : sequence of (width, height, max_disparity)
+    repeats : int
+        Timed runs per configuration (median reported).
+    rng : int
+        Seed of the synthetic pair.
+
+    Returns
+    -------
+    list of BenchRow
+        One row per size and entry of :data:`RUNS`.
+
+    Examples
+    --------
+    >>> rows = bench_match(sizes=((64, 48, 16),), repeats=1)
+    >>> [r.label for r in rows][:2]
+    ['CT 5x5', 'CT 9x9']
+    """
+    rows: list[BenchRow] = []
+    for width, height, n_disp in sizes:
+        shift = n_disp // 3
+        left, right = textured_pair(width, height, shift=shift, rng=rng)
+        measured = {}
+        for label, method, window in RUNS:
+            holder = {}
+
+            def run(method=method, window=window, holder=holder):
+                holder["d"] = match(
+                    left, right, method=method, window=window, max_disparity=n_disp
+                ).disparity
+
+            seconds, best = _time(run, repeats)
+            disp = holder["d"][:, n_disp:]
+            acc = float(np.mean(np.abs(disp - shift) <= 1.0))
+            measured[label] = (seconds, best, acc)
+        t_sgbm = measured["StereoSGBM 5"][0]
+        t_bm = measured["StereoBM 9"][0]
+        for label, (seconds, best, acc) in measured.items():
+            rows.append(
+                BenchRow(label, width, height, n_disp, seconds, seconds / t_sgbm,
+                         seconds / t_bm, acc, best)
+            )
+    return rows
+
+
+def peak_memory(
+    *, width: int = 1280, height: int = 960, max_disparity: int = 256, window: int = 21,
+    method: str = "ct", aggregate: int | None = None, lr_check: bool = False,
+) -> dict[str, float]:
+    """Peak memory of one census match: numpy allocations (tracemalloc) and process RSS growth.
+
+    numba's per-worker buffers are allocated by numba's runtime, which tracemalloc does not see;
+    the RSS growth (psutil, sampled in a thread) covers them.
+
+    Returns
+    -------
+    dict
+        ``tracemalloc_peak_mb`` and ``rss_peak_growth_mb`` (MiB), and ``seconds``.
+
+    Examples
+    --------
+    >>> m = peak_memory(width=64, height=48, max_disparity=16, window=5)
+    >>> m["tracemalloc_peak_mb"] > 0
+    True
+    """
+    import threading
+
+    import psutil
+
+    left, right = textured_pair(width, height, shift=max_disparity // 3, rng=0)
+    kwargs = dict(method=method, window=window, max_disparity=max_disparity,
+                  aggregate=aggregate, lr_check=lr_check)
+    match(left[:64, :128], right[:64, :128], **{**kwargs, "max_disparity": 16,
+                                                 "window": min(window, 63)})  # compile/load
+    gc.collect()
+    proc = psutil.Process()
+    base = proc.memory_info().rss
+    peak = [base]
+    stop = threading.Event()
+
+    def sample() -> None:
+        while not stop.is_set():
+            peak[0] = max(peak[0], proc.memory_info().rss)
+            time.sleep(0.002)
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    tracemalloc.start()
+    sampler.start()
+    t0 = time.perf_counter()
+    match(left, right, **kwargs)
+    seconds = time.perf_counter() - t0
+    stop.set()
+    sampler.join()
+    _, traced = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return {
+        "tracemalloc_peak_mb": traced / 2**20,
+        "rss_peak_growth_mb": (peak[0] - base) / 2**20,
+        "seconds": seconds,
+    }
+
+
+def format_rows(rows: Sequence[BenchRow]) -> str:
+    """A Markdown table of benchmark rows.
+
+    Examples
+    --------
+    >>> row = BenchRow("CT 5x5", 64, 48, 16, 0.001, 0.5, 1.0, 0.99, 0.0009)
+    >>> print(format_rows([row]).splitlines()[2])
+    | CT 5x5 | 64x48 | 16 | 1.0 | 0.9 | 0.50 | 1.00 | 99.0 |
+    """
+    lines = [
+        "| run | size | D | median ms | best ms | / SGBM | / BM | % within 1 px |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r.label} | {r.width}x{r.height} | {r.max_disparity} | "
+            f"{r.seconds * 1e3:.1f} | {r.best * 1e3:.1f} | {r.ratio_sgbm:.2f} | {r.ratio_bm:.2f} | "
+            f"{r.accuracy * 100:.1f} |"
+        )
+    return "\n".join(lines)
