@@ -95,8 +95,9 @@ def demo(out, width, height, seed, backend, overwrite) -> None:
 @click.argument("left", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("right", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--method", default="ct", show_default=True,
-              type=click.Choice(["ct", "sct", "bm", "sgbm"]))
-@click.option("--window", default=9, show_default=True, type=int, help="Odd window size.")
+              type=click.Choice(["ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm"]))
+@click.option("--window", default=9, show_default=True, type=int,
+              help="Odd window size (the largest window for awct/awsct).")
 @click.option("--max-disp", "max_disp", default=64, show_default=True, type=int,
               help="Number of disparities searched: d = 0 .. max-disp - 1.")
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),

@@ -1,0 +1,109 @@
+"""Timing of the seed paper's methods (CTHW, AWCT, AWSCT) against CT/SCT, same run, same pair.
+
+A benchmark, not a test: numbers depend on the machine and its load. Each method runs once to
+compile (numba) and then ``repeats`` times; the minimum wall time is reported.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from matcher.adaptive import match_awct
+from matcher.cthw import match_cthw
+from matcher.match import match
+
+__all__ = ["bench_pair", "bench_paper_methods"]
+
+
+def bench_pair(
+    shape: tuple[int, int] = (480, 640), *, shift: int = 10, rng: np.random.Generator | int | None = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """A textured uint8 pair with flat-ish patches and steps (so Canny finds edges).
+
+    The left view is the right one shifted by ``shift`` pixels (left ``x`` matches right
+    ``x - shift``).
+
+    Examples
+    --------
+    >>> left, right = bench_pair((16, 32), shift=2)
+    >>> left.shape, bool((left[:, 2:] == right[:, :-2]).all())
+    ((16, 32), True)
+    """
+    from scipy.ndimage import gaussian_filter
+
+    gen = np.random.default_rng(rng)
+    h, w = shape
+    base = gaussian_filter(gen.random((h, w + shift)), 1.5)
+    base = (base - base.min()) / (base.max() - base.min()) * 120 + 40
+    for _ in range(12):  # rectangles of other brightness: steps for the edge detector
+        y0, x0 = gen.integers(0, h - 8), gen.integers(0, w + shift - 8)
+        hh, ww = gen.integers(8, max(9, h // 3)), gen.integers(8, max(9, w // 3))
+        base[y0 : y0 + hh, x0 : x0 + ww] += gen.uniform(-40, 60)
+    full = np.clip(base, 0, 255).astype(np.uint8)
+    return full[:, :w].copy(), full[:, shift:].copy()
+
+
+def _best(fn: Callable[[], object], repeats: int) -> tuple[float, object]:
+    out = fn()
+    best = float("inf")
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def bench_paper_methods(
+    *,
+    shape: tuple[int, int] = (480, 640),
+    max_disparity: int = 64,
+    max_window: int = 21,
+    cthw_windows: tuple[int, ...] = (9, 21),
+    repeats: int = 3,
+) -> list[dict[str, object]]:
+    """Time AWCT/AWSCT against CT/SCT at ``max_window`` and CTHW against CT at the same window.
+
+    Returns
+    -------
+    list of dict
+        One row per method: ``method``, ``window``, ``seconds`` (best of ``repeats``),
+        ``baseline`` (the method it is compared with), ``ratio`` (seconds / baseline's
+        seconds), ``census_comparisons``, and ``reduction_ratio`` for the adaptive methods.
+
+    Examples
+    --------
+    >>> rows = bench_paper_methods(shape=(24, 40), max_disparity=8, max_window=7,
+    ...                            cthw_windows=(5,), repeats=1)
+    >>> [r["method"] for r in rows]
+    ['ct', 'awct', 'sct', 'awsct', 'ct', 'cthw']
+    """
+    left, right = bench_pair(shape)
+    d = max_disparity
+    rows: list[dict[str, object]] = []
+
+    def add(method, window, seconds, res, baseline, base_seconds):
+        row = {
+            "method": method, "window": window, "seconds": seconds, "baseline": baseline,
+            "ratio": seconds / base_seconds if base_seconds else 1.0,
+            "census_comparisons": res.ops.census_comparisons,
+        }
+        if hasattr(res, "reduction_ratio"):
+            row["reduction_ratio"] = res.reduction_ratio
+        rows.append(row)
+
+    for base, adaptive, pattern in (("ct", "awct", "dense"), ("sct", "awsct", "sparse")):
+        tb, rb = _best(lambda b=base: match(left, right, method=b, window=max_window,
+                                            max_disparity=d), repeats)
+        add(base, max_window, tb, rb, base, tb)
+        ta, ra = _best(lambda p=pattern: match_awct(left, right, max_window=max_window,
+                                                    max_disparity=d, pattern=p), repeats)
+        add(adaptive, max_window, ta, ra, base, tb)
+    for w in cthw_windows:
+        tb, rb = _best(lambda w=w: match(left, right, window=w, max_disparity=d), repeats)
+        add("ct", w, tb, rb, "ct", tb)
+        tc, rc = _best(lambda w=w: match_cthw(left, right, window=w, max_disparity=d), repeats)
+        add("cthw", w, tc, rc, "ct", tb)
+    return rows

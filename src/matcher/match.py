@@ -1,0 +1,291 @@
+"""The ``match`` API: census (CT), sparse census (SCT) and the OpenCV baselines (BM, SGBM).
+
+The census methods run one fused numba kernel (census codes -> Hamming -> optional box
+aggregation -> winner-takes-all -> optional LR check and subpixel), parallel over rows, without an
+``(H, D, W)`` cost volume. Its result equals ``winner_takes_all(cost_volume(...))`` of
+:mod:`matcher.cost` / :mod:`matcher.select` exactly; the rules are documented there.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import cv2
+import numba
+import numpy as np
+
+from matcher import _kernels
+from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
+from matcher.census import _check_side, _codes_planar, _resolve_offsets, n_words
+
+__all__ = ["METHODS", "MatchResult", "OpCounts", "match"]
+
+#: Accepted values of ``match(method=...)``.
+METHODS = ("ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm")
+_PAPER_METHODS = ("cthw", "awct", "awsct")
+
+# Per-thread budget for the (strip, D, W) cost buffers of the aggregated path.
+_STRIP_BUDGET_BYTES = 48 * 2**20
+# Rows per work item of the per-pixel (non-aggregated) path.
+_ROWS_PER_ITEM = 4
+
+
+@dataclass(frozen=True)
+class OpCounts:
+    """Operation counts of a census match (both views).
+
+    Attributes
+    ----------
+    census_comparisons : int
+        Census bits computed, summed over the pixels of both images: ``2 * H * W * n_bits``.
+    hamming_words : int
+        64-bit XOR + popcount operations of the per-pixel Hamming costs: ``n_words`` per left
+        pixel and candidate, ``H * n_words * sum_{d < D} (W - d)``. Counted algorithmically: the
+        LR check reuses these costs, and the aggregation's recomputed halo rows are not counted.
+    """
+
+    census_comparisons: int
+    hamming_words: int
+
+
+@dataclass(frozen=True, eq=False)
+class MatchResult:
+    """Output of :func:`match`.
+
+    Attributes
+    ----------
+    disparity : (H, W) float32 array
+        Left-view disparity in pixels; ``inf`` where invalid.
+    ops : OpCounts or None
+        Operation counts for "ct" and "sct"; ``None`` for "bm" and "sgbm" (not defined).
+    method, window, max_disparity
+        The arguments used.
+    params : Mapping[str, object]
+        Every other setting (read-only), including OpenCV's for the baselines.
+    """
+
+    disparity: np.ndarray
+    ops: OpCounts | None
+    method: str
+    window: int
+    max_disparity: int
+    params: Mapping[str, object]
+
+
+def _check_flag(value: object, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, got {value!r}")
+    return bool(value)
+
+
+def _to_uint8(grey_l: np.ndarray, grey_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """uint8 views for OpenCV: uint8 unchanged; others scaled jointly from [min, max] to [0, 255]."""
+    if grey_l.dtype == np.uint8 and grey_r.dtype == np.uint8:
+        return grey_l, grey_r
+    lo = min(float(grey_l.min()), float(grey_r.min()))
+    hi = max(float(grey_l.max()), float(grey_r.max()))
+    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+
+    def conv(g: np.ndarray) -> np.ndarray:
+        return np.clip(np.floor((g.astype(np.float64) - lo) * scale + 0.5), 0, 255).astype(np.uint8)
+
+    return conv(grey_l), conv(grey_r)
+
+
+def _match_opencv(
+    grey_l: np.ndarray,
+    grey_r: np.ndarray,
+    *,
+    method: str,
+    window: int,
+    max_disparity: int,
+    lr_tolerance: int | None,
+    subpixel: bool,
+) -> tuple[np.ndarray, dict[str, object]]:
+    left, right = _to_uint8(grey_l, grey_r)
+    num = -(-max_disparity // 16) * 16
+    disp12 = -1 if lr_tolerance is None else int(lr_tolerance)
+    if method == "bm":
+        if window < 5:
+            raise ValueError(
+                f"window: expected an odd integer >= 5 for method='bm' (OpenCV StereoBM), got "
+                f"{window}; use window=5 or a census method"
+            )
+        matcher = cv2.StereoBM_create(numDisparities=num, blockSize=window)
+        matcher.setDisp12MaxDiff(disp12)
+        params: dict[str, object] = {"numDisparities": num, "blockSize": window}
+    else:
+        p1, p2 = 8 * window * window, 32 * window * window
+        matcher = cv2.StereoSGBM_create(
+            minDisparity=0, numDisparities=num, blockSize=window, P1=p1, P2=p2,
+            disp12MaxDiff=disp12,
+        )
+        params = {"numDisparities": num, "blockSize": window, "P1": p1, "P2": p2,
+                  "mode": "MODE_SGBM"}
+    params["disp12MaxDiff"] = disp12
+    raw = matcher.compute(left, right)
+    disp = raw.astype(np.float32) / np.float32(16.0)
+    if not subpixel:
+        disp = np.floor(disp + np.float32(0.5))
+    disp[raw < 0] = np.inf
+    return disp.astype(np.float32), params
+
+
+def _census_ops(shape: tuple[int, int], bits: int, max_disparity: int) -> OpCounts:
+    h, w = shape
+    d = max_disparity
+    return OpCounts(
+        census_comparisons=2 * h * w * bits,
+        hamming_words=h * n_words(bits) * (d * w - d * (d - 1) // 2),
+    )
+
+
+def _strip_rows(max_disparity: int, width: int, half: int) -> int:
+    per_row = 2 * max_disparity * width * 4
+    return int(np.clip(_STRIP_BUDGET_BYTES // per_row - 2 * half, 8, 64))
+
+
+def match(
+    left: np.ndarray,
+    right: np.ndarray,
+    *,
+    method: str = "ct",
+    window: int = 9,
+    max_disparity: int = 64,
+    lr_check: bool = False,
+    lr_tolerance: int = 1,
+    subpixel: bool = False,
+    aggregate: int | None = None,
+) -> MatchResult:
+    """Match a rectified stereo pair and return the left-view disparity.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3) uint8, integer or float arrays
+        Rectified views, same shape; RGB is converted to grey (BT.601).
+    method : {"ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm"}, default "ct"
+        Dense census, sparse census (:func:`matcher.sparse.sparse_pattern`), the seed paper's
+        census with Haar wavelet (:func:`matcher.cthw.match_cthw`), adaptive-window census
+        and adaptive sparse census (:func:`matcher.adaptive.match_awct` / ``match_awsct``, with
+        ``window`` as the largest window and every other option at its documented default;
+        call those functions directly to set them), OpenCV
+        ``StereoBM`` (``blockSize=window``, needs ``window >= 5``) or ``StereoSGBM``
+        (``blockSize=window``, ``MODE_SGBM``, ``P1 = 8 window^2``, ``P2 = 32 window^2``).
+        The OpenCV methods search ``numDisparities = 16 * ceil(max_disparity / 16)``; non-uint8
+        input is scaled jointly from its [min, max] to uint8 for them.
+    window : int, default 9
+        Odd census window (or block) side, ``3 <= window <= min(H, W)``.
+    max_disparity : int, default 64
+        Number of candidates ``D``: disparities ``0 .. D - 1``; ``1 <= D < W``.
+    lr_check : bool, default False
+        Left-right consistency check; failures become ``inf`` (OpenCV: ``disp12MaxDiff``).
+    lr_tolerance : int, default 1
+        Largest accepted left-right difference in pixels.
+    subpixel : bool, default False
+        Parabola refinement (census); for OpenCV, keep its 1/16-pixel output (``False`` rounds
+        it to integers).
+    aggregate : int or None, default None
+        Census only: box-sum the Hamming costs over ``aggregate x aggregate`` pixels before
+        WTA; ``None`` uses per-pixel Hamming costs, as the paper does.
+
+    Returns
+    -------
+    MatchResult
+
+    Raises
+    ------
+    ValueError, TypeError
+        Bad images (shapes differ, NaN, wrong dtype), even or out-of-range windows,
+        ``max_disparity >= W``, unknown method, or options the method does not support.
+
+    References
+    ----------
+    Zabih & Woodfill, ECCV 1994 (census); Liaw et al., Sensors 20(9):2537, 2020 (this
+    toolkit's seed paper); Hirschmüller, TPAMI 30(2), 2008 (SGM).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> right = rng.integers(0, 256, (32, 48), dtype=np.uint8)
+    >>> left = np.roll(right, 3, axis=1)  # left pixel x matches right pixel x - 3
+    >>> res = match(left, right, window=5, max_disparity=8)
+    >>> float(np.median(res.disparity[:, 8:-3])), res.ops.census_comparisons
+    (3.0, 73728)
+    """
+    if method not in METHODS:
+        raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
+    grey_l = check_image(left, "left")
+    grey_r = check_image(right, "right")
+    check_same_shape(grey_l, grey_r)
+    window = _check_side(check_window(window, "window", image_shape=grey_l.shape))
+    max_disparity = check_max_disparity(max_disparity, grey_l.shape[1])
+    lr_check = _check_flag(lr_check, "lr_check")
+    subpixel = _check_flag(subpixel, "subpixel")
+    if isinstance(lr_tolerance, bool) or not isinstance(lr_tolerance, (int, np.integer)):
+        raise TypeError(f"lr_tolerance: expected an integer >= 0, got {lr_tolerance!r}")
+    if lr_tolerance < 0:
+        raise ValueError(f"lr_tolerance: expected an integer >= 0, got {lr_tolerance}")
+    lr_tolerance = int(lr_tolerance)
+    if aggregate is not None:
+        if method in ("bm", "sgbm"):
+            raise ValueError(
+                f"aggregate: only the census methods aggregate, got aggregate={aggregate!r} with "
+                f"method={method!r}; use aggregate=None"
+            )
+        aggregate = check_window(aggregate, "aggregate", image_shape=grey_l.shape)
+    params: dict[str, object] = {
+        "lr_check": lr_check,
+        "lr_tolerance": lr_tolerance,
+        "subpixel": subpixel,
+        "aggregate": aggregate,
+    }
+
+    if method in _PAPER_METHODS:
+        if lr_check or subpixel or aggregate is not None:
+            raise ValueError(
+                f"lr_check, subpixel and aggregate are not defined for method={method!r} (the "
+                "paper's methods are per-pixel Hamming + winner-takes-all); leave them unset"
+            )
+        # imported here: these modules build on MatchResult/OpCounts from this module
+        from matcher.adaptive import match_awct, match_awsct
+        from matcher.cthw import match_cthw
+
+        if method == "cthw":
+            return match_cthw(left, right, window=window, max_disparity=max_disparity)
+        paper_match = match_awct if method == "awct" else match_awsct
+        return paper_match(left, right, max_window=window, max_disparity=max_disparity)
+
+    if method in ("bm", "sgbm"):
+        disp, cv_params = _match_opencv(
+            grey_l, grey_r, method=method, window=window, max_disparity=max_disparity,
+            lr_tolerance=lr_tolerance if lr_check else None, subpixel=subpixel,
+        )
+        params.update(cv_params)
+        return MatchResult(disp, None, method, window, max_disparity,
+                           types.MappingProxyType(params))
+
+    offsets = _resolve_offsets(window, "dense" if method == "ct" else "sparse")
+    bits = int(offsets.shape[0])
+    half = 0 if aggregate is None else aggregate // 2
+    if aggregate is not None and aggregate * aggregate * bits >= 2**32 - 1:
+        raise ValueError(
+            f"aggregate: {aggregate}x{aggregate} boxes of {bits}-bit costs overflow uint32; "
+            "use a smaller aggregate or window"
+        )
+    codes_l = _codes_planar(grey_l, offsets, window)
+    codes_r = _codes_planar(grey_r, offsets, window)
+    disp = np.empty(grey_l.shape, dtype=np.float32)
+    strip = _strip_rows(max_disparity, grey_l.shape[1], half) if half else _ROWS_PER_ITEM
+    with numba.parallel_chunksize(1):  # dynamic scheduling of the strips
+        _kernels.fused_match_kernel(
+            codes_l, codes_r, max_disparity, half, lr_tolerance if lr_check else -1, subpixel,
+            strip, numba.get_num_threads(), disp,
+        )
+    params["n_bits"] = bits
+    return MatchResult(
+        disp, _census_ops(grey_l.shape, bits, max_disparity), method, window, max_disparity,
+        types.MappingProxyType(params),
+    )
