@@ -159,6 +159,26 @@ def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json) -> None:
                                               else f"{metrics[k]:>9}" for k in keys))
 
 
+@main.command()
+@click.option("--data", "data", default="../shared/data/middlebury", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path),
+              help="Middlebury folder holding third/ and half/ scene folders.")
+@click.option("--size", default="third", show_default=True, type=click.Choice(["third", "half"]))
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path))
+def paper(data, size, out) -> None:
+    """Reproduce the seed paper's Tables 1-3 and figures on the real Middlebury scenes."""
+    from synth.paper import run_paper
+
+    if not (data / size).is_dir():
+        _fail(FileNotFoundError(
+            f"no {size}/ folder under {data}; pass --data pointing at the Middlebury scenes"))
+    try:
+        report = run_paper(data, size=size, out=out, progress=True)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
+    click.echo(f"report: {report}")
+
+
 # --------------------------------------------------------------------------- benchmarks
 @main.group()
 def bench() -> None:
@@ -195,6 +215,17 @@ def bench_match_cmd(out, repeats) -> None:
 
     rows = bench_match(repeats=repeats)
     click.echo(write_table(rows, Path(out), "match"))
+
+
+@bench.command("paper")
+@click.option("--out", "out", default="out/bench", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+def bench_paper_cmd(out) -> None:
+    """The paper's methods (CTHW, AWCT, AWSCT) against CT/SCT at the same window, same run."""
+    from matcher.bench_paper import bench_paper_methods
+    from synth.bench import write_table
+
+    click.echo(write_table(bench_paper_methods(), Path(out), "paper"))
 
 
 if __name__ == "__main__":  # pragma: no cover
