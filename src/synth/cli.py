@@ -39,7 +39,7 @@ def presets() -> None:
 
 
 @main.command()
-@click.argument("scene")
+@click.argument("scene", required=False)
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Output directory (must be empty unless --overwrite).")
 @click.option("--width", default=640, show_default=True, type=click.IntRange(min=1))
@@ -52,12 +52,31 @@ def presets() -> None:
 @click.option("--backend", default="auto", show_default=True,
               type=click.Choice(["auto", "egl", "osmesa"]))
 @click.option("--overwrite", is_flag=True, help="Write into a non-empty output directory.")
-def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite) -> None:
+@click.option("--from-manifest", "from_manifest", nargs=2, default=None,
+              type=(click.Path(file_okay=False, path_type=Path), int), metavar="DIR INDEX",
+              help="Re-render sample INDEX of the dataset in DIR alone (same bytes), instead of SCENE.")
+def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite,
+           from_manifest) -> None:
     """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
     from synth.export import prepare_output_dir, resolve_scene, write_pair
     from synth.pair import render_pair
     from synth.rig import StereoRig
 
+    if from_manifest is not None:
+        from synth.dataset import render_from_manifest
+
+        if scene is not None:
+            _fail(ValueError("give either SCENE or --from-manifest DIR INDEX, not both"))
+        try:
+            prepare_output_dir(out, overwrite=overwrite)
+            written = render_from_manifest(from_manifest[0], from_manifest[1], out=out,
+                                           backend=backend)
+        except (ValueError, FileNotFoundError) as exc:
+            _fail(exc)
+        click.echo(f"wrote {len(written)} files to {out}")
+        return
+    if scene is None:
+        _fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
     try:
         spec, seed = resolve_scene(scene, seed=seed)
         rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
@@ -67,6 +86,37 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
     except (ValueError, FileNotFoundError) as exc:
         _fail(exc)
     click.echo(f"wrote {len(written)} files to {out}")
+
+
+@main.command()
+@click.argument("config")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path))
+@click.option("--count", default=None, type=click.IntRange(min=1),
+              help="Number of pairs [default: the config's count].")
+@click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1))
+@click.option("--engine", default="local", show_default=True, type=click.Choice(["local", "ray"]))
+@click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
+@click.option("--format", "fmt", default="middlebury", show_default=True,
+              type=click.Choice(["middlebury", "kitti"]))
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+def dataset(config, out, count, workers, engine, address, fmt, backend) -> None:
+    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name).
+
+    Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
+    same command after an interruption and it finishes the missing samples.
+    """
+    from synth.dataset import SampleError, run_dataset
+
+    try:
+        run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
+                          address=address, fmt=fmt, progress=True, backend=backend)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
+    except SampleError as exc:  # a sample failed: name it and how to reproduce it alone
+        raise click.ClickException(str(exc)) from exc
+    click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
+               f"there, {run.seconds:.1f} s")
 
 
 @main.command()
@@ -226,6 +276,21 @@ def bench_paper_cmd(out) -> None:
     from synth.bench import write_table
 
     click.echo(write_table(bench_paper_methods(), Path(out), "paper"))
+
+
+@bench.command("dataset")
+@click.option("--out", "out", default="out/bench", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--count", default=40, show_default=True, type=click.IntRange(min=1))
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+def bench_dataset_cmd(out, count, backend) -> None:
+    """Dataset pairs/s at 640x480 with 1 and 2 workers (writing included) and scaling."""
+    from synth.bench import write_table
+    from synth.bench_dataset import bench_dataset
+
+    rows = bench_dataset(count=count, backend=backend, progress=True)
+    click.echo(write_table(rows, Path(out), "dataset"))
 
 
 if __name__ == "__main__":  # pragma: no cover

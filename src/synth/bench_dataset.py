@@ -1,0 +1,168 @@
+"""Dataset throughput (``stereoforge bench dataset``) and the edge density check.
+
+Three measurements, all returning table rows (print them with :func:`synth.bench.write_table`):
+
+- :func:`bench_dataset`: pairs per second of the dataset job (the per-sample task of
+  :func:`synth.dataset.run_dataset` on its engine: drawing, rendering, photometric models,
+  statistics, writing into a temporary directory) for each configuration and worker count,
+  over the whole run and at steady state (without worker start-up), and the scaling efficiency
+  ``(rate_w / rate_1) / w``;
+- :func:`profile_dataset`: where one worker's time goes, per stage, in milliseconds per pair
+  (texture synthesis is measured on its own and is part of ``render``);
+- :func:`check_edge_density`: measured against requested edge density on given presets.
+"""
+
+from __future__ import annotations
+
+import resource
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+__all__ = ["bench_dataset", "profile_dataset", "check_edge_density"]
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process and its reaped children (worker processes), all threads."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def bench_dataset(
+    *,
+    configs: Sequence[str] = ("planes", "texture-sweep", "flying"),
+    count: int = 40,
+    workers: Sequence[int] = (1, 2),
+    backend: str = "auto",
+    progress: bool = False,
+) -> list[dict]:
+    """Pairs per second of whole dataset runs, per configuration and worker count.
+
+    Parameters
+    ----------
+    configs : sequence of str
+        Example names or TOML paths (their rig sets the size: 640 x 480 for the examples).
+    count : int
+        Samples per run (each run writes a fresh temporary dataset).
+    workers : sequence of int
+        Worker counts to compare; efficiency is relative to the first.
+    backend : {"auto", "egl", "osmesa"}
+    progress : bool
+
+    Returns
+    -------
+    list of dict
+        ``config, size, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
+        included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
+        without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
+        ``pairs_per_cpu_s`` (pairs per CPU second of this process and its workers, all
+        threads: robust to other load on the machine) and ``efficiency`` (steady rate over
+        ``workers / workers[0]`` times the first one's).
+    """
+    from synth.config import load_config
+    from synth.dataset import _SampleTask
+    from synth.engine import run_tasks
+
+    rows = []
+    for name in configs:
+        cfg = load_config(name)
+        base_rate = base_steady = None
+        for w in workers:
+            with tempfile.TemporaryDirectory() as tmp:
+                task = _SampleTask(cfg, Path(tmp), "middlebury", backend)
+                cpu0 = _cpu_seconds()
+                t0 = time.perf_counter()
+                done = []
+                for _ in run_tasks(task, range(count), workers=w):
+                    done.append(time.perf_counter())
+                seconds = time.perf_counter() - t0
+                cpu = _cpu_seconds() - cpu0
+            rate = count / seconds
+            steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
+            base_rate = rate if base_rate is None else base_rate
+            base_steady = steady if base_steady is None else base_steady
+            scale = w / workers[0]
+            rows.append({"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
+                         "workers": w, "pairs": count, "seconds": seconds,
+                         "pairs_per_s": rate, "steady_pairs_per_s": steady,
+                         "startup_s": seconds - count / steady,
+                         "pairs_per_cpu_s": count / cpu,
+                         "efficiency": steady / base_steady / scale})
+    return rows
+
+
+def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto") -> dict:
+    """Milliseconds per pair in each stage of one worker (after one warm-up sample).
+
+    Stages: ``draw`` (parameters and scene), ``search`` (edge density loop), ``render``
+    (``render_pair``: texture synthesis, upload, colour and depth passes, masks), ``texture``
+    (texture synthesis alone, included in ``render``), ``photometric``, ``stats`` (Canny and
+    GT statistics), ``write`` (PNG/PFM encoding, scene.json, sample.json).
+
+    Returns
+    -------
+    dict
+        ``config``, ``size``, ``pairs`` and one ``<stage>_ms`` entry per stage.
+    """
+    from scenes import build_meshes
+    from synth.config import load_config
+    from synth.dataset import _produce
+    from synth.render import Renderer
+    from synth.sampling import draw_sample
+
+    cfg = load_config(config)
+    timings: dict[str, float] = {}
+    texture = 0.0
+    with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer, \
+            tempfile.TemporaryDirectory() as tmp:
+        _produce(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
+        for i in range(count):
+            _produce(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury", timings=timings)
+            t0 = time.perf_counter()
+            build_meshes(draw_sample(cfg, i).scene)
+            texture += time.perf_counter() - t0
+    row: dict = {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
+                 "pairs": count}
+    for stage in ("draw", "search", "render", "photometric", "stats", "write"):
+        row[f"{stage}_ms"] = 1e3 * timings.get(stage, 0.0) / count
+    row["texture_ms"] = 1e3 * texture / count
+    row["total_ms"] = sum(v for k, v in row.items() if k.endswith("_ms") and k != "texture_ms")
+    return row
+
+
+def check_edge_density(
+    *,
+    presets: Sequence[str] = ("fronto_plane", "slanted_plane", "boxes"),
+    targets: Sequence[float] = (0.02, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3),
+    size: tuple[int, int] = (640, 480),
+    seed: int = 0,
+    contrast: float = 0.8,
+    backend: str = "auto",
+) -> list[dict]:
+    """Requested vs measured edge density of :func:`match_edge_density` (noise textures).
+
+    Returns
+    -------
+    list of dict
+        ``preset, target, measured, error, frequency_px, probes, seconds`` per pair.
+    """
+    from scenes import get_preset
+    from synth.render import Renderer
+    from synth.rig import StereoRig
+    from synth.texture_control import match_edge_density, retexture
+
+    rig = StereoRig.default(*size)
+    rows = []
+    with Renderer(*size, backend=backend) as renderer:
+        for name in presets:
+            base = retexture(get_preset(name, seed=seed), fx=rig.fx, kind="noise",
+                             contrast=contrast)
+            for target in targets:
+                t0 = time.perf_counter()
+                r = match_edge_density(base, rig, target, renderer=renderer)
+                rows.append({"preset": name, "target": target, "measured": r.edge_density,
+                             "error": r.edge_density - target, "frequency_px": r.frequency_px,
+                             "probes": r.probes, "seconds": time.perf_counter() - t0})
+    return rows

@@ -1,0 +1,459 @@
+"""Datasets at scale: many labelled pairs from one configuration, deterministic and resumable.
+
+Layout of a dataset directory ``out/``::
+
+    dataset.json        configuration (canonical), its hash, format, Canny settings
+    manifest.jsonl      one JSON record per complete sample, sorted by index
+    manifest.csv        the same records, flattened (``params.*``, ``stats.*`` columns)
+    000000/             sample 0: im0.png im1.png disp0.pfm disp1.pfm mask0nocc.png calib.txt
+                        scene.json sample.json [preview.png]          (fmt="middlebury")
+    000000/             scene.json sample.json; the images go to       (fmt="kitti")
+    image_2/ image_3/ disp_occ_0/ disp_noc_0/   000000_10.png ...
+    .lock               held (flock) by the run writing the directory
+
+Guarantees (see ``docs/datasets.md``):
+
+- sample ``i`` depends only on the configuration and ``i`` (its seed is
+  :func:`synth.sampling.sample_seed`), so its files are byte-identical whatever the number of
+  workers, the engine or the order;
+- a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to ``NNNNNN/`` when complete: the
+  directory existing *is* the completion marker. A run killed at any point and restarted skips
+  the complete samples, redoes the others and ends with the same bytes as an uninterrupted run;
+- a directory made by another configuration (or format) is refused (hash in ``dataset.json``);
+  ``count`` is not part of the hash, so a dataset can be extended;
+- a failing sample leaves no files and raises :exc:`SampleError` naming its index and seed;
+  :func:`render_from_manifest` reproduces it alone.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import fcntl
+import io
+import json
+import os
+import re
+import shutil
+import time
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from synth.config import DatasetConfig, config_from_dict, load_config
+from synth.engine import ENGINES, run_tasks
+from synth.export import FORMATS, prepare_output_dir, write_pair
+from synth.io._atomic import atomic_write_bytes
+from synth.photometric import apply_photometric
+from synth.sampling import draw_sample, effective_frequency_px, sample_seed, stream
+from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density
+
+__all__ = ["DatasetError", "SampleError", "DatasetRun", "run_dataset", "render_from_manifest",
+           "read_manifest"]
+
+_FORMAT_VERSION = 1
+_SAMPLE_DIR = re.compile(r"^\d{6}$")
+_TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
+_KITTI_DIRS = ("image_2", "image_3", "disp_occ_0", "disp_noc_0")
+_PHOTOMETRIC_STREAM = 3
+
+
+class DatasetError(ValueError):
+    """The dataset directory cannot be used as asked (other config, busy, not a dataset)."""
+
+
+class SampleError(RuntimeError):
+    """Rendering or writing one sample failed; ``index`` and ``seed`` reproduce it."""
+
+    def __init__(self, index: int, seed: int, cause: str) -> None:
+        super().__init__(f"sample {index} (seed {seed}) failed: {cause}; reproduce it alone with "
+                         f"render_from_manifest(dataset_dir, {index}, out=...) or "
+                         f"`stereoforge render --from-manifest DATASET_DIR {index} --out DIR`")
+        self.index, self.seed, self.cause = index, seed, cause
+
+    def __reduce__(self) -> tuple:  # picklable across processes
+        return (SampleError, (self.index, self.seed, self.cause))
+
+
+@dataclass(frozen=True)
+class DatasetRun:
+    """Summary of :func:`run_dataset`.
+
+    Attributes
+    ----------
+    out : Path
+    count : int
+        Samples the dataset holds (``0 .. count - 1``).
+    rendered, skipped : int
+        Samples rendered by this run, and found complete.
+    seconds : float
+        Wall time of the run.
+    """
+
+    out: Path
+    count: int
+    rendered: int
+    skipped: int
+    seconds: float
+
+
+def _version() -> str:
+    try:
+        return metadata.version("stereoforge")
+    except metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def _r(value: float | None) -> float | None:
+    return None if value is None else round(float(value), 6)
+
+
+def _json_bytes(obj: Any) -> bytes:
+    return (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode()
+
+
+# --------------------------------------------------------------------------- one sample
+def _produce(config: DatasetConfig, index: int, renderer: Any, dest: Path, fmt: str, *,
+             timings: dict[str, float] | None = None) -> dict:
+    """Render sample ``index`` and write all its files into ``dest``; return its record.
+
+    ``timings``, if given, accumulates the seconds spent per stage (draw, search, render,
+    stats, photometric, write).
+    """
+    from synth.pair import render_pair
+
+    clock = [time.perf_counter()]
+
+    def lap(stage: str) -> None:
+        now = time.perf_counter()
+        if timings is not None:
+            timings[stage] = timings.get(stage, 0.0) + now - clock[0]
+        clock[0] = now
+
+    draw = draw_sample(config, index)
+    scene, search = draw.scene, None
+    lap("draw")
+    if draw.edge_density is not None:
+        search = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer)
+        scene = search.scene
+    lap("search")
+    pair = render_pair(scene, config.rig, renderer=renderer)
+    lap("render")
+    out = apply_photometric(pair.left, pair.right, draw.photometric,
+                            rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
+    lap("photometric")
+    rho = edge_density(pair.left)
+    degraded = dataclasses.replace(pair, left=out.left, right=out.right)
+    finite = pair.disp_left[np.isfinite(pair.disp_left)]
+    stats = {
+        "edge_density": _r(rho),
+        "edge_search_probes": None if search is None else search.probes,
+        "edge_search_converged": None if search is None else search.converged,
+        "texture_frequency_px": _r(effective_frequency_px(scene, fx=config.rig.fx)),
+        "disp_min": _r(finite.min()) if finite.size else None,
+        "disp_max": _r(finite.max()) if finite.size else None,
+        "occluded_fraction": _r(np.mean(pair.mask_left == 128)),
+        "invalid_fraction": _r(np.mean(pair.mask_left == 0)),
+    }
+    lap("stats")
+    record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
+              "params": dict(draw.params), "stats": stats}
+    dest.mkdir(parents=True, exist_ok=True)
+    write_pair(degraded, dest, scene=scene, seed=draw.seed, fmt=fmt, index=index,
+               preview=config.preview, fsync=False)
+    atomic_write_bytes(dest / "sample.json", _json_bytes(record), fsync=False)
+    lap("write")
+    return record
+
+
+def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
+    """Move a finished sample into place; the final rename is the completion marker."""
+    if fmt == "kitti":
+        for sub in _KITTI_DIRS:
+            (out / sub).mkdir(exist_ok=True)
+            for f in sorted((tmp / sub).iterdir()):
+                os.replace(f, out / sub / f.name)
+            (tmp / sub).rmdir()
+    final = out / f"{index:06d}"
+    try:
+        os.rename(tmp, final)
+    except OSError:
+        if not (final / "sample.json").is_file():
+            raise
+        shutil.rmtree(tmp, ignore_errors=True)  # finished meanwhile by another process: same bytes
+    fd = os.open(out, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+class _SampleTask:
+    """Picklable per-sample job (see :mod:`synth.engine`)."""
+
+    def __init__(self, config: DatasetConfig, out: Path, fmt: str, backend: str) -> None:
+        self.config_dict = config.to_dict()
+        self.source = config.source
+        self.out, self.fmt, self.backend = Path(out), fmt, backend
+        self.width, self.height = config.rig.width, config.rig.height
+        self._config: DatasetConfig | None = config
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_config": None}
+
+    @property
+    def config(self) -> DatasetConfig:
+        if self._config is None:
+            self._config = config_from_dict(self.config_dict, source=self.source)
+        return self._config
+
+    def __call__(self, index: int, renderer: Any) -> dict:
+        tmp = self.out / f".{index:06d}.tmp-{os.getpid()}"
+        try:
+            shutil.rmtree(tmp, ignore_errors=True)
+            record = _produce(self.config, index, renderer, tmp, self.fmt)
+            _commit(tmp, self.out, index, self.fmt)
+            return record
+        except BaseException as exc:
+            shutil.rmtree(tmp, ignore_errors=True)
+            if isinstance(exc, Exception) and not isinstance(exc, SampleError):
+                seed = sample_seed(self.config.seed, index)
+                raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
+            raise
+
+
+# --------------------------------------------------------------------------- manifest
+def read_manifest(dataset_dir: str | Path) -> list[dict]:
+    """Records of the complete samples of a dataset, sorted by index (from ``NNNNNN/sample.json``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> read_manifest(tempfile.mkdtemp())
+    []
+    """
+    root = Path(dataset_dir)
+    records = []
+    for d in root.iterdir():
+        if d.is_dir() and _SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():
+            records.append(json.loads((d / "sample.json").read_text()))
+    return sorted(records, key=lambda r: r["index"])
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _write_manifest(out: Path) -> list[dict]:
+    records = read_manifest(out)
+    jsonl = "".join(json.dumps(r, sort_keys=True) + "\n" for r in records)
+    atomic_write_bytes(out / "manifest.jsonl", jsonl.encode(), fsync=False)
+    params = sorted({k for r in records for k in r["params"]})
+    stats = sorted({k for r in records for k in r["stats"]})
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["index", "seed", "dir", *(f"params.{k}" for k in params),
+                     *(f"stats.{k}" for k in stats)])
+    for r in records:
+        writer.writerow([r["index"], r["seed"], r["dir"],
+                         *(_cell(r["params"].get(k)) for k in params),
+                         *(_cell(r["stats"].get(k)) for k in stats)])
+    atomic_write_bytes(out / "manifest.csv", buf.getvalue().encode(), fsync=False)
+    return records
+
+
+# --------------------------------------------------------------------------- dataset.json / lock
+def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
+    return {"format_version": _FORMAT_VERSION, "name": config.name,
+            "config": config.to_dict(with_count=False), "config_hash": config.hash(),
+            "format": fmt, "canny": CANNY_SETTINGS,
+            "seeding": "sample_seed = SeedSequence(seed, spawn_key=(index,)).generate_state(1, "
+                       "uint64)[0] >> 1"}
+
+
+def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
+    header = _dataset_header(config, fmt)
+    path = out / "dataset.json"
+    if path.is_file():
+        old = json.loads(path.read_text())
+        if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
+            raise DatasetError(
+                f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
+                f"hash {str(old.get('config_hash'))[:12]}) made by another configuration than "
+                f"{config.source} (format {fmt!r}, hash {header['config_hash'][:12]}); choose "
+                "another output directory, or delete this one to start over")
+        return
+    others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
+    if others:
+        raise DatasetError(f"{out} is not empty ({', '.join(others[:5])}"
+                           f"{', ...' if len(others) > 5 else ''}) and holds no dataset.json; "
+                           "choose an empty or new directory")
+    atomic_write_bytes(path, _json_bytes(header))
+
+
+def _lock(out: Path) -> int:
+    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise DatasetError(f"another run is writing {out} (it holds {out / '.lock'}); wait for "
+                           "it to finish or stop it") from None
+    return fd
+
+
+# --------------------------------------------------------------------------- public API
+def run_dataset(
+    config: str | Path | DatasetConfig,
+    *,
+    out: str | Path,
+    count: int | None = None,
+    workers: int = 1,
+    engine: str = "local",
+    address: str | None = None,
+    fmt: str = "middlebury",
+    progress: bool = True,
+    backend: str = "auto",
+) -> DatasetRun:
+    """Render (or finish) the dataset of ``config`` into ``out``.
+
+    Parameters
+    ----------
+    config : str, Path or DatasetConfig
+        A TOML file, the name of a shipped example (``planes``, ``texture-sweep``, ``flying``)
+        or a parsed configuration.
+    out : str or Path
+        Dataset directory: new, empty, or holding a (partial) dataset of the same config and
+        format, which is completed.
+    count : int, optional
+        Samples ``0 .. count - 1`` (default: the config's ``count``).
+    workers : int
+        Processes (``engine="local"``) or Ray actors (``engine="ray"``), one renderer each.
+    engine : {"local", "ray"}
+    address : str, optional
+        Ray cluster address; default a local Ray with ``num_cpus=workers``.
+    fmt : {"middlebury", "kitti"}
+    progress : bool
+        Show a progress bar (stderr).
+    backend : {"auto", "egl", "osmesa"}
+        GL backend of every worker's renderer.
+
+    Returns
+    -------
+    DatasetRun
+
+    Raises
+    ------
+    DatasetError
+        ``out`` holds another dataset, other files, or is being written by another run.
+    SampleError
+        A sample failed (its index and seed are in the message); the samples completed before
+        stay, and the manifest lists them.
+    synth.config.ConfigError
+        The configuration is invalid (file, line, allowed values).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> tmp = tempfile.mkdtemp()
+    >>> run = run_dataset("planes", out=f"{tmp}/planes", count=2, progress=False)
+    >>> run.rendered, sorted(p.name for p in run.out.iterdir())[:3]
+    (2, ['.lock', '000000', '000001'])
+    """
+    cfg = load_config(config)
+    count = cfg.count if count is None else count
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 999_999:
+        raise ValueError(f"count must be an int in [1, 999999], got {count!r}")
+    if fmt not in FORMATS:
+        raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    t0 = time.perf_counter()
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise DatasetError(f"{out} exists and is not a directory; choose another output")
+    out.mkdir(parents=True, exist_ok=True)
+    lock = _lock(out)
+    try:
+        _open_dataset(out, cfg, fmt)
+        for stale in out.iterdir():
+            if _TMP_DIR.match(stale.name):
+                shutil.rmtree(stale, ignore_errors=True)
+        todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]
+        task = _SampleTask(cfg, out, fmt, backend)
+        bar = tqdm(total=len(todo), desc=f"dataset {cfg.name}", unit="pair", disable=not progress)
+        try:
+            for _ in run_tasks(task, todo, workers=workers, engine=engine, address=address):
+                bar.update()
+        finally:
+            bar.close()
+            _write_manifest(out)
+    finally:
+        os.close(lock)
+    return DatasetRun(out=out, count=count, rendered=len(todo), skipped=count - len(todo),
+                      seconds=time.perf_counter() - t0)
+
+
+def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path,
+                         backend: str = "auto") -> list[Path]:
+    """Re-render sample ``index`` of a dataset alone, into ``out``, with the dataset's bytes.
+
+    The configuration comes from ``dataset_dir/dataset.json``; the sample need not be complete
+    (this is how a failed sample is reproduced). ``out`` receives the sample's files as in the
+    dataset (Middlebury: ``im0.png ...``; KITTI: ``image_2/NNNNNN_10.png ...``) plus
+    ``scene.json`` and ``sample.json``.
+
+    Returns
+    -------
+    list of Path
+        The files written, sorted.
+
+    Raises
+    ------
+    SampleError
+        If the sample fails (message with index and seed).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> tmp = tempfile.mkdtemp()
+    >>> _ = run_dataset("planes", out=f"{tmp}/planes", count=2, progress=False)
+    >>> files = render_from_manifest(f"{tmp}/planes", 1, out=f"{tmp}/planes-1")
+    >>> sorted(f.name for f in files)[:3]
+    ['calib.txt', 'disp0.pfm', 'disp1.pfm']
+    >>> from pathlib import Path
+    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "000001", "im0.png").read_bytes()
+    True
+    """
+    from synth.render import Renderer
+
+    root = Path(dataset_dir)
+    path = root / "dataset.json"
+    if not path.is_file():
+        raise DatasetError(f"{root} has no dataset.json; pass a directory made by run_dataset")
+    header = json.loads(path.read_text())
+    cfg = config_from_dict(header["config"], source=str(path))
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
+        raise ValueError(f"index must be an int in [0, 999999], got {index!r}")
+    record = root / f"{index:06d}" / "sample.json"
+    seed = sample_seed(cfg.seed, index)
+    if record.is_file() and json.loads(record.read_text())["seed"] != seed:
+        raise DatasetError(f"{record} has another seed than sample {index} of {path}; the "
+                           "dataset directory was modified")
+    dest = prepare_output_dir(out)
+    try:
+        with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer:
+            _produce(cfg, index, renderer, dest, header["format"])
+    except Exception as exc:
+        raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
+    return sorted(p for p in dest.rglob("*") if p.is_file())

@@ -1,0 +1,187 @@
+"""Parallel execution of per-sample tasks, one GL renderer per worker.
+
+A *task* is a picklable callable ``task(index, renderer) -> dict`` with attributes ``width``,
+``height`` and ``backend`` (the renderer each worker opens). :func:`run_tasks` runs it over
+indices and yields ``(index, result)`` as samples finish (in completion order; callers that need
+order sort). Engines:
+
+- ``"local"``: ``workers == 1`` runs in this process; more workers are a
+  :class:`concurrent.futures.ProcessPoolExecutor` with the ``spawn`` start method (never
+  ``fork``: a forked GL context is unusable), each process opening one :class:`Renderer` in its
+  initializer and reusing it. With more workers than cores / 2, each worker's llvmpipe gets
+  ``LP_NUM_THREADS = cores // workers`` threads (unless the variable is set), which avoids
+  oversubscription and does not change the images.
+- ``"ray"``: ``workers`` Ray actors (one renderer each), on the cluster at ``address`` or on a
+  local Ray started with ``num_cpus=workers`` (and shut down after). Needs ``pip install ray``.
+
+The first failing task stops the run: pending tasks are cancelled and its exception is raised.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import Any, Protocol
+
+__all__ = ["ENGINES", "Task", "run_tasks", "ray_available"]
+
+ENGINES = ("local", "ray")
+
+
+class Task(Protocol):
+    """What :func:`run_tasks` runs (see the module docstring)."""
+
+    width: int
+    height: int
+    backend: str
+
+    def __call__(self, index: int, renderer: Any) -> dict: ...
+
+
+def ray_available() -> bool:
+    """Whether ``import ray`` works here."""
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# --------------------------------------------------------------------------- local engine
+_WORKER: dict[str, Any] = {}
+
+
+def _threads_per_worker(workers: int) -> int | None:
+    cores = os.cpu_count() or 1
+    return max(1, cores // workers) if workers > 1 else None
+
+
+def _init_worker(task: Task, lp_threads: int | None) -> None:
+    if lp_threads is not None:
+        os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
+    from synth.render import Renderer
+
+    _WORKER["task"] = task
+    _WORKER["renderer"] = Renderer(task.width, task.height, backend=task.backend)
+
+
+def _run_in_worker(index: int) -> tuple[int, dict]:
+    return index, _WORKER["task"](index, _WORKER["renderer"])
+
+
+def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tuple[int, dict]]:
+    if workers == 1:
+        from synth.render import Renderer
+
+        with Renderer(task.width, task.height, backend=task.backend) as renderer:
+            for index in indices:
+                yield index, task(index, renderer)
+        return
+    ctx = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                               initargs=(task, _threads_per_worker(workers)))
+    try:
+        pending = {pool.submit(_run_in_worker, i) for i in indices}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in sorted(done, key=lambda f: f.exception() is not None):
+                yield fut.result()  # raises the task's exception
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+# --------------------------------------------------------------------------- ray engine
+class _RayWorker:
+    """Body of a Ray actor: one renderer, reused for every sample it is given."""
+
+    def __init__(self, task: Task) -> None:
+        from synth.render import Renderer
+
+        self.task = task
+        self.renderer = Renderer(task.width, task.height, backend=task.backend)
+
+    def run(self, index: int) -> tuple[int, dict]:
+        return index, self.task(index, self.renderer)
+
+
+def _run_ray(task: Task, indices: Sequence[int], workers: int,
+             address: str | None) -> Iterator[tuple[int, dict]]:
+    try:
+        import ray
+        from ray.util import ActorPool
+    except ImportError as exc:
+        raise RuntimeError("engine='ray' needs Ray: pip install ray (or use engine='local')"
+                           ) from exc
+    started = not ray.is_initialized()
+    if started:
+        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+        if address is None:
+            kwargs["num_cpus"] = workers
+        ray.init(address=address, **kwargs)
+    actors: list[Any] = []
+    try:
+        actor_cls = ray.remote(num_cpus=1)(_RayWorker)
+        actors = [actor_cls.remote(task) for _ in range(workers)]
+        pool = ActorPool(actors)
+        results = pool.map_unordered(lambda actor, i: actor.run.remote(i), list(indices))
+        while True:
+            try:
+                yield next(results)
+            except StopIteration:
+                break
+            except ray.exceptions.RayTaskError as exc:
+                cause = getattr(exc, "cause", None)
+                if isinstance(cause, Exception):
+                    raise cause from None
+                raise
+    finally:
+        for actor in actors:
+            ray.kill(actor)
+        if started:
+            ray.shutdown()
+
+
+# --------------------------------------------------------------------------- entry point
+def run_tasks(task: Task, indices: Sequence[int], *, workers: int = 1, engine: str = "local",
+              address: str | None = None) -> Iterator[tuple[int, dict]]:
+    """Run ``task`` over ``indices``; yield ``(index, result)`` as each finishes.
+
+    Parameters
+    ----------
+    task : Task
+    indices : sequence of int
+    workers : int
+        Worker processes (local) or actors (ray), >= 1; at most ``len(indices)`` are started.
+    engine : {"local", "ray"}
+    address : str, optional
+        Ray cluster address (``engine="ray"`` only); default: start a local Ray.
+
+    Examples
+    --------
+    >>> class Square:
+    ...     width, height, backend = 8, 8, "auto"
+    ...     def __call__(self, index, renderer):
+    ...         return {"square": index * index}
+    >>> list(run_tasks(Square(), [], workers=2))  # nothing to do: no worker starts
+    []
+    >>> run_tasks(Square(), [1], engine="dask")
+    Traceback (most recent call last):
+    ...
+    ValueError: engine must be one of local, ray, got 'dask'
+    """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if address is not None and engine != "ray":
+        raise ValueError(f"address={address!r} applies to engine='ray' only; drop it or pass "
+                         "engine='ray'")
+    indices = list(indices)
+    if not indices:
+        return iter(())
+    workers = min(workers, len(indices))
+    if engine == "ray":
+        return _run_ray(task, indices, workers, address)
+    return _run_local(task, indices, workers)

@@ -1,0 +1,155 @@
+"""Per-sample randomness of a dataset: the sample seed, the drawn parameters and the scene.
+
+Sample ``i`` of a dataset with seed ``s`` has the seed
+``sample_seed(s, i) = SeedSequence(s, spawn_key=(i,)).generate_state(1, uint64)[0] >> 1``
+(an int in ``[0, 2**63)``), and everything about the sample derives from that one integer through
+independent streams ``SeedSequence(sample_seed, spawn_key=(k,))``: ``k = 0`` the parameter draws,
+``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise. Nothing depends on
+which worker renders the sample, nor when.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec, get_preset
+from synth.config import DatasetConfig
+from synth.photometric import PhotometricParams
+from synth.texture_control import retexture
+
+__all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px"]
+
+_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC = range(4)
+#: Occluder texture frequency (cycles per pixel) when the config sets none (as the presets: 8 px).
+_DEFAULT_OCCLUDER_FREQUENCY_PX = 0.125
+
+
+def sample_seed(dataset_seed: int, index: int) -> int:
+    """The seed of sample ``index`` of a dataset with seed ``dataset_seed``.
+
+    Examples
+    --------
+    >>> sample_seed(0, 0) == sample_seed(0, 0) != sample_seed(0, 1)
+    True
+    >>> 0 <= sample_seed(7, 3) < 2**63
+    True
+    """
+    for name, value in (("dataset_seed", dataset_seed), ("index", index)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise ValueError(f"{name} must be an int >= 0, got {value!r}")
+    state = np.random.SeedSequence(int(dataset_seed), spawn_key=(int(index),))
+    return int(state.generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+def stream(seed: int, k: int) -> np.random.Generator:
+    """Independent generator number ``k`` of a sample seed.
+
+    Examples
+    --------
+    >>> float(stream(5, 0).random()) == float(stream(5, 0).random()) != float(stream(5, 1).random())
+    True
+    """
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(int(k),)))
+
+
+@dataclass(frozen=True)
+class SampleDraw:
+    """Everything drawn for one sample before rendering.
+
+    Attributes
+    ----------
+    index, seed : int
+    params : dict
+        Drawn values, keys ``"scene.<key>"`` and ``"photometric.<key>"`` (plain JSON values).
+    scene : SceneSpec
+        Base preset, retextured, plus occluders (not yet matched to ``edge_density``).
+    edge_density : float or None
+        Target edge density of the closed-loop search, if the config asks for one.
+    photometric : PhotometricParams
+    """
+
+    index: int
+    seed: int
+    params: Mapping[str, Any]
+    scene: SceneSpec
+    edge_density: float | None
+    photometric: PhotometricParams
+
+
+def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Generator,
+               texture_kind: str | None) -> list[ObjectSpec]:
+    rig = config.rig
+    out = []
+    f_px = draw.get("frequency_px") or _DEFAULT_OCCLUDER_FREQUENCY_PX
+    for i in range(int(draw["occluders"])):
+        z = float(draw["occluder_depth"])
+        u, v = rng.uniform(0.0, rig.width), rng.uniform(0.0, rig.height)
+        x, y = (u - rig.cx) * z / rig.fx, (v - rig.cy) * z / rig.fy
+        side = float(draw["occluder_size"]) * rig.width * z / rig.fx  # metres
+        rotation = tuple(float(a) for a in rng.uniform(0.0, 360.0, size=3))
+        kind = str(draw["occluder_kind"])
+        size = {"box": (side, side, side), "sphere": (side / 2,),
+                "cylinder": (side / 2, side)}[kind]
+        contrast = draw.get("contrast")
+        texture = TextureSpec(
+            kind=texture_kind or "noise", frequency=f_px * rig.fx / z,
+            contrast=0.8 if contrast is None else float(contrast),
+            mean=float(rng.uniform(0.3, 0.7)), seed=int(rng.integers(0, 2**63)),
+            angle=float(rng.uniform(0.0, 180.0)))
+        out.append(ObjectSpec(kind, Pose(translation=(x, y, z), rotation_deg=rotation), size,
+                              texture, name=f"occluder{i}", segments=32))
+    return out
+
+
+def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
+    """Draw sample ``index``'s parameters and build its scene.
+
+    Every key of ``[scene]`` then ``[photometric]`` is drawn in schema order from the parameter
+    stream (fixed values draw nothing), so a sample does not depend on any other.
+
+    Examples
+    --------
+    >>> from synth.config import loads_config
+    >>> cfg = loads_config('[scene]\\nfrequency_px = {uniform = [0.05, 0.1]}')
+    >>> d = draw_sample(cfg, 3)
+    >>> d == draw_sample(cfg, 3), 0.05 <= d.params["scene.frequency_px"] <= 0.1
+    (True, True)
+    """
+    seed = sample_seed(config.seed, index)
+    rng = stream(seed, _STREAM_PARAMS)
+    scene_draw = {k: d.sample(rng) for k, d in config.scene.items()}
+    phot_draw = {k: d.sample(rng) for k, d in config.photometric.items()}
+    preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
+    scene = get_preset(str(scene_draw["base"]), seed=preset_seed)
+    kind = None if scene_draw["texture"] == "preset" else str(scene_draw["texture"])
+    extra = _occluders(scene_draw, config, stream(seed, _STREAM_OCCLUDERS), kind)
+    if extra:
+        scene = SceneSpec(scene.name, (*extra, *scene.objects), light=scene.light,
+                          background=scene.background, seed=scene.seed,
+                          description=scene.description)
+    scene = retexture(scene, fx=config.rig.fx, frequency_px=scene_draw.get("frequency_px"),
+                      contrast=scene_draw.get("contrast"), kind=kind)
+    params = {f"scene.{k}": v for k, v in scene_draw.items()}
+    params.update({f"photometric.{k}": v for k, v in phot_draw.items()})
+    params["scene.preset_seed"] = preset_seed
+    return SampleDraw(index=int(index), seed=seed, params=params, scene=scene,
+                      edge_density=scene_draw.get("edge_density"),
+                      photometric=PhotometricParams.from_mapping(phot_draw))
+
+
+def effective_frequency_px(scene: SceneSpec, *, fx: float) -> float | None:
+    """Median texture frequency of the scene's textured objects, cycles per pixel at each
+    object's centre depth (``f_m * Z_ref / fx``); None if nothing is textured.
+
+    Examples
+    --------
+    >>> effective_frequency_px(get_preset("fronto_plane"), fx=600.0)
+    0.125
+    """
+    values = [o.texture.frequency * o.pose.translation[2] / fx for o in scene.objects
+              if o.texture.kind != "constant" and o.texture.contrast > 0
+              and o.pose.translation[2] > 0]
+    return float(np.median(values)) if values else None

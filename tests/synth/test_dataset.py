@@ -1,0 +1,291 @@
+"""run_dataset / render_from_manifest: determinism, resume after a kill, refusal, failures."""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from synth.config import loads_config
+from synth.dataset import (
+    DatasetError,
+    SampleError,
+    read_manifest,
+    render_from_manifest,
+    run_dataset,
+)
+from synth.sampling import draw_sample, sample_seed
+
+CONFIG = """\
+name = "tiny"
+seed = 11
+count = 12
+
+[rig]
+width = 48
+height = 32
+
+[scene]
+base = {choice = ["fronto_plane", "boxes", "flying"]}
+texture = {choice = ["preset", "noise"]}
+contrast = {uniform = [0.5, 1.0]}
+occluders = {uniform = [0, 2]}
+occluder_size = {uniform = [0.1, 0.3]}
+occluder_depth = {uniform = [1.0, 1.5]}
+occluder_kind = {choice = ["box", "sphere", "cylinder"]}
+
+[photometric]
+noise_sigma = {uniform = [0.0, 3.0]}
+gain = {uniform = [0.9, 1.1]}
+bias = {uniform = [-5.0, 5.0]}
+gamma = {uniform = [0.8, 1.2]}
+blur_sigma = {choice = [0.0, 0.7]}
+jpeg_quality = {choice = [0, 90]}
+"""
+MIDDLEBURY_FILES = {"im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "mask0nocc.png", "calib.txt",
+                    "scene.json", "sample.json"}
+
+
+def _tree(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file()}
+
+
+def _assert_same_tree(a: Path, b: Path) -> None:
+    ta, tb = _tree(a), _tree(b)
+    assert sorted(ta) == sorted(tb)
+    different = [k for k in ta if ta[k] != tb[k]]
+    assert not different, different
+
+
+@pytest.fixture(scope="module")
+def config_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("cfg") / "tiny.toml"
+    path.write_text(CONFIG)
+    return path
+
+
+@pytest.fixture(scope="module")
+def reference(config_file, tmp_path_factory, renderer) -> Path:
+    out = tmp_path_factory.mktemp("ref") / "ds"
+    run = run_dataset(config_file, out=out, workers=1, progress=False)
+    assert (run.count, run.rendered, run.skipped) == (12, 12, 0)
+    return out
+
+
+@pytest.mark.gl
+def test_layout_and_manifest(reference, config_file):
+    names = sorted(p.name for p in reference.iterdir())
+    assert names == [".lock", *[f"{i:06d}" for i in range(12)], "dataset.json",
+                     "manifest.csv", "manifest.jsonl"]
+    for i in range(12):
+        assert {p.name for p in (reference / f"{i:06d}").iterdir()} == MIDDLEBURY_FILES
+    header = json.loads((reference / "dataset.json").read_text())
+    cfg = loads_config(CONFIG, source=str(config_file))
+    assert header["config_hash"] == cfg.hash() and header["format"] == "middlebury"
+    lines = (reference / "manifest.jsonl").read_text().splitlines()
+    records = [json.loads(line) for line in lines]
+    assert [r["index"] for r in records] == list(range(12))
+    assert records == read_manifest(reference)
+    for r in records:
+        assert r["seed"] == sample_seed(11, r["index"])
+        assert r["params"] == json.loads(json.dumps(draw_sample(cfg, r["index"]).params))
+        s = r["stats"]
+        assert 0 <= s["edge_density"] < 1 and 0 <= s["occluded_fraction"] < 1
+        assert 0 < s["disp_min"] <= s["disp_max"]
+    csv_lines = (reference / "manifest.csv").read_text().splitlines()
+    head = csv_lines[0].split(",")
+    assert head[:3] == ["index", "seed", "dir"]
+    assert "params.photometric.gain" in head and "stats.edge_density" in head
+    assert [line.split(",")[0] for line in csv_lines[1:]] == [str(i) for i in range(12)]
+    # the drawn parameters vary from sample to sample
+    assert len({r["params"]["photometric.gain"] for r in records}) == 12
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_two_workers_write_the_same_bytes_as_one(reference, config_file, tmp_path):
+    out = tmp_path / "ds"
+    run_dataset(config_file, out=out, workers=2, progress=False)
+    _assert_same_tree(reference, out)
+
+
+@pytest.mark.gl
+def test_growing_count_extends_with_the_same_bytes(reference, config_file, tmp_path):
+    out = tmp_path / "ds"
+    first = run_dataset(config_file, out=out, count=3, workers=1, progress=False)
+    assert (first.rendered, first.skipped) == (3, 0)
+    second = run_dataset(config_file, out=out, count=5, workers=1, progress=False)
+    assert (second.rendered, second.skipped) == (2, 3)
+    for i in range(5):
+        _assert_same_tree(reference / f"{i:06d}", out / f"{i:06d}")
+    assert [r["index"] for r in read_manifest(out)] == list(range(5))
+
+
+@pytest.mark.gl
+def test_render_from_manifest_reproduces_a_sample(reference, tmp_path):
+    files = render_from_manifest(reference, 7, out=tmp_path / "one")
+    assert {f.name for f in files} == MIDDLEBURY_FILES
+    _assert_same_tree(reference / "000007", tmp_path / "one")
+
+
+def test_another_config_or_format_is_refused(config_file, tmp_path):
+    out = tmp_path / "ds"
+    out.mkdir()
+    cfg = loads_config(CONFIG)
+    (out / "dataset.json").write_text(json.dumps({"name": "tiny", "format": "middlebury",
+                                                  "config_hash": cfg.hash()}))
+    other = loads_config(CONFIG.replace("seed = 11", "seed = 12"), source="other.toml")
+    with pytest.raises(DatasetError, match=r"another configuration than other\.toml"):
+        run_dataset(other, out=out, progress=False)
+    with pytest.raises(DatasetError, match=r"format 'kitti'"):
+        run_dataset(cfg, out=out, fmt="kitti", progress=False)
+
+
+def test_a_foreign_directory_or_a_busy_one_is_refused(tmp_path):
+    cfg = loads_config(CONFIG)
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    with pytest.raises(DatasetError, match=r"not empty \(notes\.txt\)"):
+        run_dataset(cfg, out=foreign, progress=False)
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    fd = os.open(busy / ".lock", os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        with pytest.raises(DatasetError, match="another run is writing"):
+            run_dataset(cfg, out=busy, progress=False)
+    finally:
+        os.close(fd)
+
+
+def test_arguments_are_validated(tmp_path):
+    cfg = loads_config(CONFIG)
+    for kwargs, match in [({"count": 0}, "count"), ({"fmt": "png"}, "fmt must be one of"),
+                          ({"engine": "dask"}, "engine must be one of"),
+                          ({"workers": 0}, "workers must be")]:
+        with pytest.raises(ValueError, match=match):
+            run_dataset(cfg, out=tmp_path / "x", progress=False, **kwargs)
+
+
+@pytest.mark.gl
+def test_a_failing_sample_leaves_no_files_and_names_its_index_and_seed(tmp_path, renderer):
+    # far = 4.5 m: the boxes preset's wall (5 m) is out of range, the fronto plane (2 m) is not
+    text = CONFIG.replace("height = 32", "height = 32\nfar = 4.5").replace(
+        'base = {choice = ["fronto_plane", "boxes", "flying"]}',
+        'base = {choice = ["fronto_plane", "boxes"]}')
+    cfg = loads_config(text)
+    bad = next(i for i in range(12) if draw_sample(cfg, i).params["scene.base"] == "boxes")
+    assert bad > 0, "the test needs a good sample before the bad one"
+    out = tmp_path / "ds"
+    with pytest.raises(SampleError, match=rf"sample {bad} \(seed {sample_seed(11, bad)}\)") as e:
+        run_dataset(cfg, out=out, workers=1, progress=False)
+    assert "far" in str(e.value) and "render_from_manifest" in str(e.value)
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [".lock", *[f"{i:06d}" for i in range(bad)], "dataset.json",
+                     "manifest.csv", "manifest.jsonl"]
+    assert len(read_manifest(out)) == bad
+    with pytest.raises(SampleError, match=rf"sample {bad} \(seed {sample_seed(11, bad)}\)"):
+        render_from_manifest(out, bad, out=tmp_path / "again")
+
+
+@pytest.mark.gl
+def test_kitti_layout(config_file, tmp_path, renderer):
+    out = tmp_path / "kitti"
+    run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
+    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0"):
+        assert sorted(p.name for p in (out / sub).iterdir()) == ["000000_10.png",
+                                                                 "000001_10.png"]
+    assert {p.name for p in (out / "000001").iterdir()} == {"scene.json", "sample.json"}
+    files = render_from_manifest(out, 1, out=tmp_path / "one")
+    assert sorted(str(f.relative_to(tmp_path / "one")) for f in files) == sorted(
+        [f"{s}/000001_10.png" for s in ("image_2", "image_3", "disp_occ_0", "disp_noc_0")]
+        + ["scene.json", "sample.json"])
+    for sub in ("image_2", "disp_noc_0"):
+        assert (out / sub / "000001_10.png").read_bytes() == \
+            (tmp_path / "one" / sub / "000001_10.png").read_bytes()
+
+
+# --------------------------------------------------------------------------- kill and resume
+_RUNNER = """
+import sys
+from synth.dataset import run_dataset
+if __name__ == "__main__":
+    run_dataset(sys.argv[1], out=sys.argv[2], workers=int(sys.argv[3]), progress=False)
+"""
+
+
+def _complete(out: Path) -> list[str]:
+    return sorted(p.name for p in out.iterdir() if p.is_dir() and p.name.isdigit()) \
+        if out.exists() else []
+
+
+def _interrupt(config_file: Path, out: Path, tmp_path: Path, *, workers: int, sig: int) -> None:
+    script = tmp_path / "runner.py"
+    script.write_text(textwrap.dedent(_RUNNER))
+    log = tmp_path / "runner.log"
+    with open(log, "wb") as sink:
+        proc = subprocess.Popen([sys.executable, str(script), str(config_file), str(out),
+                                 str(workers)], stdout=sink, stderr=sink)
+    try:
+        deadline = time.monotonic() + 60
+        while len(_complete(out)) < 3:
+            assert proc.poll() is None, log.read_text()[-2000:]
+            assert time.monotonic() < deadline, "no sample appeared within 60 s"
+            time.sleep(0.005)
+        os.kill(proc.pid, sig)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode != 0
+    done = _complete(out)
+    assert 3 <= len(done) < 12, done  # killed mid-way
+    for name in done:  # every sample directory present is complete
+        assert {p.name for p in (out / name).iterdir()} == MIDDLEBURY_FILES
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_sigkill_then_restart_gives_the_uninterrupted_bytes(reference, config_file, tmp_path):
+    out = tmp_path / "ds"
+    _interrupt(config_file, out, tmp_path, workers=1, sig=signal.SIGKILL)
+    run = run_dataset(config_file, out=out, workers=1, progress=False)
+    assert run.skipped >= 3 and run.rendered + run.skipped == 12
+    _assert_same_tree(reference, out)
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_sigint_with_two_workers_then_restart(reference, config_file, tmp_path):
+    out = tmp_path / "ds"
+    _interrupt(config_file, out, tmp_path, workers=2, sig=signal.SIGINT)
+    run_dataset(config_file, out=out, workers=1, progress=False)
+    _assert_same_tree(reference, out)
+    assert not [p for p in out.iterdir() if ".tmp-" in p.name]
+
+
+@pytest.mark.gl
+def test_edge_density_config_reaches_its_targets(tmp_path, renderer):
+    text = CONFIG.replace("count = 12", "count = 4").replace("width = 48", "width = 64").replace(
+        "height = 32", "height = 48").replace(
+        'base = {choice = ["fronto_plane", "boxes", "flying"]}', 'base = "fronto_plane"').replace(
+        'texture = {choice = ["preset", "noise"]}', 'texture = "noise"\n'
+        "edge_density = {uniform = [0.05, 0.3]}").replace("occluders = {uniform = [0, 2]}",
+                                                          "occluders = 0")
+    run_dataset(loads_config(text), out=tmp_path / "ds", progress=False)
+    for r in read_manifest(tmp_path / "ds"):
+        target = r["params"]["scene.edge_density"]
+        assert abs(r["stats"]["edge_density"] - target) <= 0.02
+        assert r["stats"]["edge_search_probes"] >= 1

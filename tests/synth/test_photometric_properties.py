@@ -1,0 +1,51 @@
+"""Properties of the photometric models on random images."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from synth.photometric import PhotometricParams, apply_photometric
+
+images = arrays(np.uint8, st.tuples(st.integers(2, 24), st.integers(2, 24), st.just(3)))
+params = st.builds(
+    PhotometricParams,
+    noise_sigma=st.floats(0.0, 10.0),
+    gain=st.floats(0.5, 2.0),
+    bias=st.floats(-20.0, 20.0),
+    gamma=st.floats(0.5, 2.0),
+    blur_sigma=st.floats(0.0, 2.0),
+    jpeg_quality=st.sampled_from([0, 60, 95]),
+)
+
+
+@given(images, params, st.integers(0, 2**32))
+def test_output_is_uint8_of_the_input_shape_and_seed_determined(img, p, seed):
+    a = apply_photometric(img, img[::-1].copy(), p, rng=seed)
+    b = apply_photometric(img, img[::-1].copy(), p, rng=seed)
+    for x, y in zip(a, b):
+        assert x.dtype == np.uint8 and x.shape == img.shape
+        np.testing.assert_array_equal(x, y)
+
+
+def test_output_example():
+    img = np.full((3, 5, 3), 9, np.uint8)
+    out = apply_photometric(img, img, PhotometricParams(noise_sigma=1.0, jpeg_quality=60), rng=0)
+    assert out.left.shape == (3, 5, 3) and out.right.dtype == np.uint8
+
+
+@given(images, st.floats(0.5, 2.0), st.floats(-20.0, 20.0))
+def test_gain_bias_never_touch_the_left_image_and_are_affine_on_the_right(img, gain, bias):
+    out = apply_photometric(img, img, PhotometricParams(gain=gain, bias=bias), rng=0)
+    np.testing.assert_array_equal(out.left, img)
+    expected = np.clip(np.rint(img.astype(np.float32) * np.float32(gain) + np.float32(bias)),
+                       0, 255)
+    np.testing.assert_array_equal(out.right, expected.astype(np.uint8))
+
+
+def test_gain_bias_example():
+    img = np.array([[[0, 100, 250]]], np.uint8)
+    out = apply_photometric(img, img, PhotometricParams(gain=1.5, bias=-10.0), rng=0)
+    assert out.right.tolist() == [[[0, 140, 255]]]
