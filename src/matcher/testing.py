@@ -108,14 +108,23 @@ class ShiftedPair:
 
 @st.composite
 def shifted_pairs(
-    draw, *, max_shift: int = 8, min_side: int = 24, max_side: int = 48
+    draw,
+    *,
+    max_shift: int = 8,
+    min_side: int = 24,
+    max_side: int = 48,
+    smooth: tuple[float, float] = (0.0, 0.8),
 ) -> ShiftedPair:
     """Pairs cut from one random texture so that ``left[:, x] == right[:, x - shift]``.
+
+    ``smooth`` is the range of the Gaussian blur (sigma, pixels) of the texture: 0 is white noise;
+    about 1.5 and more band-limits it below the Nyquist frequency of a half-resolution image.
     """
     shift = draw(st.integers(0, max_shift))
     h = draw(st.integers(min_side, max_side))
     w = draw(st.integers(max(min_side, 2 * max_shift + 4), max(max_side, 2 * max_shift + 4)))
-    strip = _texture(np.random.default_rng(draw(_seeds())), h, w + shift, draw(st.floats(0, 0.8)))
+    sigma = draw(st.floats(*smooth))
+    strip = _texture(np.random.default_rng(draw(_seeds())), h, w + shift, sigma)
     return ShiftedPair(left=strip[:, :w].copy(), right=strip[:, shift : shift + w].copy(), shift=shift)
 
 
