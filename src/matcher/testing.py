@@ -14,7 +14,7 @@ test suite, like ``xarray.testing.strategies``::
         bm = cv2.StereoBM_create(numDisparities=16, blockSize=5)
         disp = bm.compute(pair.left, pair.right) / 16.0
         inner = disp[8:-8, 24:-8]
-        assert np.median(inner) == pair.shift
+        assert abs(np.median(inner) - pair.shift) <= 0.25
 
 Conventions: a left pixel at ``x`` matches the right pixel at ``x - d`` (``d >= 0``), see
 ``docs/conventions.md``. Images are (H, W) uint8 unless stated.
