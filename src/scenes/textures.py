@@ -10,6 +10,7 @@ whatever its pixel count. Images depend on the :class:`~scenes.spec.TextureSpec`
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -101,23 +102,53 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
     """
     h, w = shape
     white = rng.standard_normal((h, w))
-    fu = np.fft.rfftfreq(w, d=pixel_size[0])
-    fv = np.fft.fftfreq(h, d=pixel_size[1])
+    spectrum = np.fft.rfft2(white)
+    del white
+    spectrum *= _annulus_gain(h, w, float(frequency), float(pixel_size[0]), float(pixel_size[1]))
+    noise = np.fft.irfft2(spectrum, s=(h, w))
+    del spectrum
+    # In place, with the arithmetic of ``(noise - noise.mean()) / noise.std()``: same bits.
+    mean = noise.mean()
+    noise -= mean
+    std = math.sqrt(np.add.reduce(np.square(noise), axis=None) / noise.size)
+    if std == 0:  # band entirely beyond the grid's Nyquist frequency
+        return noise
+    noise /= std
+    return noise
+
+
+@functools.lru_cache(maxsize=16)
+def _annulus_gain(h: int, w: int, frequency: float, du: float, dv: float) -> np.ndarray:
+    """Read-only (h, w // 2 + 1) Gaussian annulus of :func:`band_limited_noise` (zero at DC).
+
+    Cached: scenes rebuilt with new seeds reuse their textures' shapes and frequencies.
+    """
+    fu = np.fft.rfftfreq(w, d=du)
+    fv = np.fft.fftfreq(h, d=dv)
     radius = np.hypot(fv[:, None], fu[None, :])
     sigma = _NOISE_RELATIVE_SIGMA * frequency
     gain = np.exp(-0.5 * ((radius - frequency) / sigma) ** 2)
     gain[0, 0] = 0.0  # zero mean
-    noise = np.fft.irfft2(np.fft.rfft2(white) * gain, s=(h, w))
-    std = noise.std()
-    if std == 0:  # band entirely beyond the grid's Nyquist frequency
-        return noise
-    return (noise - noise.mean()) / std
+    gain.setflags(write=False)
+    return gain
 
 
 def _soft_square(phase: np.ndarray, pixels_per_cycle: float) -> np.ndarray:
-    """Square wave of ``sin(phase)`` with ~1-pixel antialiased edges, values in [-1, 1]."""
+    """Square wave of ``sin(phase)`` with ~1-pixel antialiased edges, values in [-1, 1].
+
+    Overwrites and returns ``phase``.
+    """
     gain = max(1.0, pixels_per_cycle / math.pi)
-    return np.clip(gain * np.sin(phase), -1.0, 1.0)
+    np.sin(phase, out=phase)
+    phase *= gain
+    return np.clip(phase, -1.0, 1.0, out=phase)
+
+
+def _wave_phase(along: np.ndarray, frequency: float, offset: float) -> np.ndarray:
+    """``2 pi frequency along + offset`` (a new array), evaluated as written."""
+    phase = np.multiply(along, 2 * math.pi * frequency)
+    phase += offset
+    return phase
 
 
 def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
@@ -171,25 +202,40 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
                          max_side=max_side)
     du, dv = width / w, height / h
     rng = np.random.default_rng(spec.seed)
+    # Array expressions below are evaluated in place, in the order the formulas read, so
+    # the bytes do not depend on the temporaries saved.
     if spec.kind == "constant" or spec.contrast == 0.0:
         pattern = np.zeros((h, w))
     elif spec.kind == "noise":
-        noise = band_limited_noise((h, w), frequency=spec.frequency, pixel_size=(du, dv), rng=rng)
-        pattern = np.clip(noise / _NOISE_CLIP_SIGMAS, -1.0, 1.0)
+        pattern = band_limited_noise((h, w), frequency=spec.frequency, pixel_size=(du, dv),
+                                     rng=rng)
+        pattern /= _NOISE_CLIP_SIGMAS
+        np.clip(pattern, -1.0, 1.0, out=pattern)
     else:
         u = (np.arange(w) + 0.5) * du
         v = (np.arange(h) + 0.5) * dv
         theta = math.radians(spec.angle)
         along = math.cos(theta) * u[None, :] + math.sin(theta) * v[:, None]
-        across = -math.sin(theta) * u[None, :] + math.cos(theta) * v[:, None]
         phase_a, phase_b = rng.uniform(0.0, 2 * math.pi, size=2)
         px_per_cycle = 1.0 / (spec.frequency * max(du, dv))
-        pattern = _soft_square(2 * math.pi * spec.frequency * along + phase_a, px_per_cycle)
+        pattern = _soft_square(_wave_phase(along, spec.frequency, phase_a), px_per_cycle)
         if spec.kind == "checker":
-            pattern = pattern * _soft_square(2 * math.pi * spec.frequency * across + phase_b,
-                                             px_per_cycle)
-    grey = np.clip(spec.mean + spec.contrast * 0.5 * pattern, 0.0, 1.0)
+            across = -math.sin(theta) * u[None, :] + math.cos(theta) * v[:, None]
+            pattern *= _soft_square(_wave_phase(across, spec.frequency, phase_b), px_per_cycle)
+    # grey = clip(mean + contrast * 0.5 * pattern, 0, 1)
+    grey = pattern
+    grey *= spec.contrast * 0.5
+    grey += spec.mean
+    np.clip(grey, 0.0, 1.0, out=grey)
     out = np.empty((h, w, 3), dtype=np.uint8)
+    level = np.empty_like(grey)
+    done: dict[float, int] = {}
     for channel, tint in enumerate(spec.color):
-        out[:, :, channel] = np.rint(grey * (255.0 * tint))
+        if tint in done:  # same tint as an earlier channel: same bytes
+            out[:, :, channel] = out[:, :, done[tint]]
+            continue
+        np.multiply(grey, 255.0 * tint, out=level)
+        np.rint(level, out=level)
+        out[:, :, channel] = level
+        done[tint] = channel
     return out

@@ -15,6 +15,7 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
+from numba import njit
 
 from synth.render import Renderer
 from synth.rig import StereoRig
@@ -116,25 +117,36 @@ def occlusion_mask(
             f"disp_left and disp_right must be (H, W) arrays of one shape, got {dl.shape} "
             f"and {dr.shape}"
         )
-    h, w = dl.shape
-    valid = np.isfinite(dl)
-    xr = np.arange(w, dtype=np.float64) - dl  # -inf where there is no surface
-    inside = xr >= -0.5  # in the right image (d >= 0: never beyond its right edge)
-    x0 = np.floor(xr, where=inside, out=np.zeros_like(xr))
-    t = xr - x0
-    i0 = x0.astype(np.intp)
-    row = (np.arange(h, dtype=np.intp) * w)[:, None]
-    flat = dr.ravel()
-    a = flat.take(np.maximum(i0, 0) + row)
-    b = flat.take(np.minimum(i0 + 1, w - 1) + row)
-    with np.errstate(invalid="ignore"):  # inf - inf where the right view sees nothing
-        lerp = a + t * (b - a)
-        ok = np.abs(dl - lerp) <= lerp_tol
-        ok |= np.abs(dl - a) <= edge_tol
-        ok |= (t > 0) & (np.abs(dl - b) <= edge_tol)  # b brackets xr only if t > 0
-    mask = np.where(valid, np.uint8(MASK_OCCLUDED), np.uint8(MASK_INVALID))
-    mask[inside & ok] = MASK_VISIBLE
+    mask = np.empty(dl.shape, dtype=np.uint8)
+    _mask_kernel(np.ascontiguousarray(dl), np.ascontiguousarray(dr), float(lerp_tol),
+                 float(edge_tol), mask)
     return mask
+
+
+@njit(cache=True, nogil=True)
+def _mask_kernel(dl: np.ndarray, dr: np.ndarray, lerp_tol: float, edge_tol: float,
+                 mask: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Body of :func:`occlusion_mask`: float64 disparities in, codes written to ``mask``."""
+    h, w = dl.shape
+    for i in range(h):
+        for j in range(w):
+            d = dl[i, j]
+            if not np.isfinite(d):
+                mask[i, j] = MASK_INVALID
+                continue
+            xr = j - d
+            if not xr >= -0.5:  # outside the right image (d >= 0: never beyond its right edge)
+                mask[i, j] = MASK_OCCLUDED
+                continue
+            x0 = np.floor(xr)
+            t = xr - x0
+            i0 = int(x0)
+            a = dr[i, max(i0, 0)]
+            b = dr[i, min(i0 + 1, w - 1)]
+            # NaN (inf - inf where the right view sees nothing) fails every comparison
+            ok = (abs(d - (a + t * (b - a))) <= lerp_tol or abs(d - a) <= edge_tol
+                  or (t > 0 and abs(d - b) <= edge_tol))  # b brackets xr only if t > 0
+            mask[i, j] = MASK_VISIBLE if ok else MASK_OCCLUDED
 
 
 @functools.cache

@@ -1,8 +1,9 @@
 """The only GL module: backend choice, context lifetime, colour and exact depth.
 
-Colour comes from pyrender (4x MSAA, mipmapped textures) with a view-independent
-Lambert shading baked into per-vertex colours, so a surface point has the same
-colour in both views. Ground truth comes from a separate pass of our own:
+Both passes are our own shader programs in one GL context (pyrender only creates
+the EGL/OSMesa context). Colour: a view-independent Lambert shading baked into
+per-vertex colours times a mipmapped texture, 4x MSAA resolved to the pixel
+average, so a surface point has the same colour in both views. Ground truth:
 no multisampling, a 32-bit float colour target that receives the camera-space
 depth ``Z`` interpolated (perspective-correctly) at each pixel centre, and a
 32-bit float depth buffer. See ``docs/ground-truth.md`` for why.
@@ -165,11 +166,10 @@ def _camera_pose(rig: StereoRig, eye: str) -> np.ndarray:
 @dataclass
 class _Mesh:
     name: str
-    positions: np.ndarray  # (n, 3) float32, world
+    vertices: np.ndarray  # (n, 8) float32: world position, texcoord (s, t), shade (r, g, b)
     faces: np.ndarray  # (m, 3) uint32
-    uv: np.ndarray | None
-    image: Any  # PIL image or None
-    color_mult: np.ndarray  # (n, 4) float32
+    image: np.ndarray | None  # (h, w, 3) uint8, row 0 at t = 0
+    closed: bool  # closed surface wound counter-clockwise seen from outside: cull back faces
     zmin: float
     zmax: float
 
@@ -231,31 +231,50 @@ def _prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity
     shade = ambient + intensity * np.clip(n @ to_light, 0.0, None)
     # Textures hold display-encoded values: scale them by the encoded shading factor.
     mult = np.clip(shade, 0.0, None) ** (1.0 / _DISPLAY_GAMMA)
-    color = np.ones((len(v), 4))
-    color[:, :3] = mult[:, None]
+    color = np.repeat(mult[:, None], 3, axis=1)
     visual = m.visual
     uv = image = None
     if getattr(visual, "kind", None) == "texture":
         mat = visual.material
         image = getattr(mat, "image", None) or getattr(mat, "baseColorTexture", None)
         if visual.uv is not None and image is not None:
-            uv = np.asarray(visual.uv, dtype=np.float32)
+            uv = np.asarray(visual.uv, dtype=np.float64)
+            image = _rgb_array(image)
         else:
             image = None
             main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)
-            color[:, :3] *= main[:3] / 255.0
+            color *= main[:3] / 255.0
     elif getattr(visual, "kind", None) in ("vertex", "face"):
-        color[:, :3] *= np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
+        color *= np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
+    vertices = np.zeros((len(v), 8), dtype=np.float32)
+    vertices[:, :3] = v
+    if uv is not None:
+        # UVs follow OpenGL (v = 1 is image row 0); images are uploaded row 0 first (t = 0)
+        vertices[:, 3] = uv[:, 0]
+        vertices[:, 4] = 1.0 - uv[:, 1]
+    vertices[:, 5:] = color
     return _Mesh(
         name=name,
-        positions=np.ascontiguousarray(v, dtype=np.float32),
+        vertices=vertices,
         faces=np.ascontiguousarray(f, dtype=np.uint32),
-        uv=uv,
         image=image,
-        color_mult=color.astype(np.float32),
+        closed=not m.metadata.get("double_sided", True),
         zmin=float(v[:, 2].min()),
         zmax=float(v[:, 2].max()),
     )
+
+
+def _rgb_array(image: Any) -> np.ndarray:
+    """A texture (PIL image or array) as a C-contiguous (h, w, 3) uint8 array."""
+    if getattr(image, "mode", "RGB") != "RGB":
+        image = image.convert("RGB")
+    arr = np.asarray(image)
+    if arr.ndim == 2:
+        arr = np.repeat(arr[:, :, None], 3, axis=2)
+    if arr.ndim != 3 or arr.shape[2] < 3 or arr.dtype != np.uint8:
+        raise ValueError(f"texture images must be (h, w, 3) uint8 RGB, got {arr.shape} "
+                         f"{arr.dtype}; convert the image to 8-bit RGB")
+    return np.ascontiguousarray(arr[:, :, :3])
 
 
 def _check_depth_range(meshes: Sequence[_Mesh], rig: StereoRig) -> None:
@@ -274,6 +293,33 @@ def _check_depth_range(meshes: Sequence[_Mesh], rig: StereoRig) -> None:
 
 
 # ---------------------------------------------------------------------------- GL passes
+#: Samples per pixel of the colour pass (its resolve averages them: area antialiasing).
+_MSAA_SAMPLES = 4
+# Interleaved vertex layout shared by both passes: position (3), texcoord (2), shade (3).
+_STRIDE = 8 * 4
+
+_COLOR_VERT = """#version 330 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec2 texcoord;
+layout(location = 2) in vec3 shade;
+uniform mat4 PV;
+out vec2 uv;
+out vec3 mult;
+void main() {
+    gl_Position = PV * vec4(position, 1.0);
+    uv = texcoord;
+    mult = shade;
+}
+"""
+_COLOR_FRAG = """#version 330 core
+in vec2 uv;
+in vec3 mult;
+uniform sampler2D tex;
+layout(location = 0) out vec4 out_color;
+void main() {
+    out_color = vec4(clamp(texture(tex, uv).rgb * mult, 0.0, 1.0), 1.0);
+}
+"""
 _GT_VERT = """#version 330 core
 layout(location = 0) in vec3 position;
 uniform mat4 PV;
@@ -294,165 +340,276 @@ void main() {
 """
 
 
-class _DepthPass:
-    """Single-sample float32 pass writing camera-space Z at pixel centres."""
+def _program(vert: str, frag: str) -> int:
+    from OpenGL import GL
+    from OpenGL.GL import shaders
+
+    return shaders.compileProgram(
+        shaders.compileShader(vert, GL.GL_VERTEX_SHADER),
+        shaders.compileShader(frag, GL.GL_FRAGMENT_SHADER),
+        validate=False,
+    )
+
+
+def _framebuffer(attachments: Sequence[tuple[int, int]], width: int, height: int,
+                 samples: int, what: str) -> tuple[int, list[int]]:
+    """A framebuffer with one renderbuffer per ``(attachment point, internal format)``."""
+    from OpenGL import GL
+
+    fbo = GL.glGenFramebuffers(1)
+    rbs = [int(r) for r in np.atleast_1d(GL.glGenRenderbuffers(len(attachments)))]
+    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
+    for rb, (point, fmt) in zip(rbs, attachments):
+        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
+        if samples > 1:
+            GL.glRenderbufferStorageMultisample(GL.GL_RENDERBUFFER, samples, fmt, width, height)
+        else:
+            GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, fmt, width, height)
+        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, point, GL.GL_RENDERBUFFER, rb)
+    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, 0)
+    status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
+    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+    if status != GL.GL_FRAMEBUFFER_COMPLETE:
+        raise GLBackendError(f"{what} framebuffer incomplete (status 0x{status:x})")
+    return int(fbo), rbs
+
+
+def _delete_framebuffer(fb: tuple[int, list[int]]) -> None:
+    from OpenGL import GL
+
+    GL.glDeleteFramebuffers(1, [fb[0]])
+    GL.glDeleteRenderbuffers(len(fb[1]), fb[1])
+
+
+def _set_culling(cull: bool) -> None:
+    """Back-face culling on (closed meshes) or off (open, double-sided surfaces).
+
+    Culling a closed, outward-wound mesh changes no pixel: both cameras are
+    outside it (every mesh lies at ``z >= near > 0``, the cameras at ``z = 0``),
+    so each ray meets a front face before any back face. It halves the triangles
+    llvmpipe rasterises.
+    """
+    from OpenGL import GL
+
+    (GL.glEnable if cull else GL.glDisable)(GL.GL_CULL_FACE)
+
+
+@dataclass
+class _GLScene:
+    """GL resources of one uploaded scene (released by :meth:`_Passes.release`)."""
+
+    meshes: list[_Mesh]
+    vao_color: int
+    vao_gt: int
+    buffers: list[int]
+    textures: list[int]
+    draws: list[tuple[int, int, int]]  # (texture, first index, index count) per mesh
+    closed: int  # indices of the closed meshes, which come first (drawn with back-face culling)
+    count: int  # indices of the whole scene
+    meta: dict = field(default_factory=dict)
+
+
+class _Passes:
+    """The two passes of a view and the framebuffers they draw into.
+
+    Colour: our flat shader (texture x per-vertex shade, trilinear mipmapped
+    texture lookups) into a ``_MSAA_SAMPLES``-sample RGBA8 framebuffer, resolved
+    by a same-size blit (the average of the samples) into a single-sample one.
+    Ground truth: no multisampling, camera-space ``Z`` into ``GL_R32F`` with a
+    linear ``GL_DEPTH_COMPONENT32F`` visibility test.
+    """
 
     def __init__(self, width: int, height: int) -> None:
         from OpenGL import GL
-        from OpenGL.GL import shaders
 
-        self.program = shaders.compileProgram(
-            shaders.compileShader(_GT_VERT, GL.GL_VERTEX_SHADER),
-            shaders.compileShader(_GT_FRAG, GL.GL_FRAGMENT_SHADER),
-            validate=False,
-        )
-        self.loc_pv = GL.glGetUniformLocation(self.program, "PV")
-        self.loc_far = GL.glGetUniformLocation(self.program, "inv_far")
-        self.rb_color, self.rb_depth = GL.glGenRenderbuffers(2)
-        self.fbo = GL.glGenFramebuffers(1)
+        self.color_program = _program(_COLOR_VERT, _COLOR_FRAG)
+        self.loc_color_pv = GL.glGetUniformLocation(self.color_program, "PV")
+        GL.glUseProgram(self.color_program)
+        GL.glUniform1i(GL.glGetUniformLocation(self.color_program, "tex"), 0)
+        GL.glUseProgram(0)
+        self.gt_program = _program(_GT_VERT, _GT_FRAG)
+        self.loc_gt_pv = GL.glGetUniformLocation(self.gt_program, "PV")
+        self.loc_far = GL.glGetUniformLocation(self.gt_program, "inv_far")
+        # untextured meshes sample a white texel: colour = shade exactly
+        self.white = self._texture(np.full((1, 1, 3), 255, dtype=np.uint8))
+        self.fbs: list[tuple[int, list[int]]] = []
         self.resize(width, height)
 
     def resize(self, width: int, height: int) -> None:
-        """(Re)allocate the R32F colour and DEPTH_COMPONENT32F attachments."""
+        """(Re)allocate the framebuffers for ``width`` x ``height`` views."""
         from OpenGL import GL
 
+        for fb in self.fbs:
+            _delete_framebuffer(fb)
         self.w, self.h = width, height
-        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, self.rb_color)
-        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_R32F, width, height)
-        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, self.rb_depth)
-        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH_COMPONENT32F, width, height)
-        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, 0)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo)
-        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0,
-                                     GL.GL_RENDERBUFFER, self.rb_color)
-        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT,
-                                     GL.GL_RENDERBUFFER, self.rb_depth)
-        status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        if status != GL.GL_FRAMEBUFFER_COMPLETE:
-            raise GLBackendError(f"float32 depth framebuffer incomplete (status 0x{status:x})")
+        color, depth = GL.GL_COLOR_ATTACHMENT0, GL.GL_DEPTH_ATTACHMENT
+        self.fb_msaa = _framebuffer([(color, GL.GL_RGBA8), (depth, GL.GL_DEPTH_COMPONENT24)],
+                                    width, height, _MSAA_SAMPLES, "multisampled colour")
+        self.fb_resolve = _framebuffer([(color, GL.GL_RGBA8)], width, height, 1, "colour")
+        self.fb_gt = _framebuffer([(color, GL.GL_R32F), (depth, GL.GL_DEPTH_COMPONENT32F)],
+                                  width, height, 1, "float32 depth")
+        self.fbs = [self.fb_msaa, self.fb_resolve, self.fb_gt]
 
-    def upload(self, meshes: Sequence[_Mesh]) -> tuple[int, list[int], int]:
-        """All meshes in one VAO: one draw call per view (llvmpipe's per-draw cost dominates)."""
+    def delete(self) -> None:
         from OpenGL import GL
 
-        positions = np.concatenate([m.positions for m in meshes])
-        offsets = np.cumsum([0] + [len(m.positions) for m in meshes[:-1]])
+        for fb in self.fbs:
+            _delete_framebuffer(fb)
+        self.fbs = []
+        GL.glDeleteTextures(1, [self.white])
+        GL.glDeleteProgram(self.color_program)
+        GL.glDeleteProgram(self.gt_program)
+
+    # ------------------------------------------------------------------ uploads
+    @staticmethod
+    def _texture(image: np.ndarray) -> int:
+        """Upload an (h, w, 3) uint8 image, row 0 at texture coordinate t = 0, with mipmaps."""
+        from OpenGL import GL
+
+        tex = GL.glGenTextures(1)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+        h, w = image.shape[:2]
+        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGB8, w, h, 0, GL.GL_RGB,
+                        GL.GL_UNSIGNED_BYTE, image)
+        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR_MIPMAP_LINEAR)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_REPEAT)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_T, GL.GL_REPEAT)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+        return int(tex)
+
+    def upload(self, meshes: Sequence[_Mesh], meta: dict) -> _GLScene:
+        """One vertex and one index buffer for the scene; one texture per distinct image.
+
+        Closed meshes come first in the index buffer, open ones after: the depth
+        pass draws each group in one call (llvmpipe's per-draw cost dominates
+        small scenes), the colour pass one range per mesh, in the same order.
+        """
+        from OpenGL import GL
+
+        meshes = sorted(meshes, key=lambda m: not m.closed)  # stable: scene order within groups
+        closed = sum(int(m.faces.size) for m in meshes if m.closed)
+        textures: dict[int, int] = {}
+        draws = []
+        first = base = 0
+        for m in meshes:
+            if m.image is None:
+                tex = self.white
+            else:
+                key = id(m.image)
+                if key not in textures:
+                    textures[key] = self._texture(m.image)
+                tex = textures[key]
+            draws.append((tex, first, int(m.faces.size)))
+            first += int(m.faces.size)
+        vertices = np.concatenate([m.vertices for m in meshes])
+        offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
         faces = np.concatenate([m.faces + np.uint32(o) for m, o in zip(meshes, offsets)])
-        vao = GL.glGenVertexArrays(1)
-        vbo, ebo = GL.glGenBuffers(2)
-        GL.glBindVertexArray(vao)
+        vao_color, vao_gt = (int(v) for v in GL.glGenVertexArrays(2))
+        vbo, ebo = (int(b) for b in GL.glGenBuffers(2))
         GL.glBindBuffer(GL.GL_ARRAY_BUFFER, vbo)
-        GL.glBufferData(GL.GL_ARRAY_BUFFER, positions.nbytes, positions, GL.GL_STATIC_DRAW)
-        GL.glEnableVertexAttribArray(0)
-        GL.glVertexAttribPointer(0, 3, GL.GL_FLOAT, GL.GL_FALSE, 12, ctypes.c_void_p(0))
-        GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, ebo)
-        GL.glBufferData(GL.GL_ELEMENT_ARRAY_BUFFER, faces.nbytes, faces, GL.GL_STATIC_DRAW)
+        GL.glBufferData(GL.GL_ARRAY_BUFFER, vertices.nbytes, vertices, GL.GL_STATIC_DRAW)
+        for vao, attributes in ((vao_color, ((0, 3, 0), (1, 2, 12), (2, 3, 20))),
+                                (vao_gt, ((0, 3, 0),))):
+            GL.glBindVertexArray(vao)
+            GL.glBindBuffer(GL.GL_ARRAY_BUFFER, vbo)
+            for loc, size, offset in attributes:
+                GL.glEnableVertexAttribArray(loc)
+                GL.glVertexAttribPointer(loc, size, GL.GL_FLOAT, GL.GL_FALSE, _STRIDE,
+                                         ctypes.c_void_p(offset))
+            GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, ebo)
+            if vao == vao_color:
+                GL.glBufferData(GL.GL_ELEMENT_ARRAY_BUFFER, faces.nbytes, faces,
+                                GL.GL_STATIC_DRAW)
         GL.glBindVertexArray(0)
         GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
-        return vao, [vbo, ebo], int(faces.size)
+        return _GLScene(meshes, vao_color, vao_gt, [vbo, ebo], list(textures.values()),
+                        draws, closed, int(faces.size), meta)
 
-    def release(self, upload: tuple[int, list[int], int]) -> None:
+    def release(self, up: _GLScene) -> None:
         from OpenGL import GL
 
-        vao, bufs, _ = upload
-        GL.glDeleteVertexArrays(1, [vao])
-        GL.glDeleteBuffers(len(bufs), bufs)
+        GL.glDeleteVertexArrays(2, [up.vao_color, up.vao_gt])
+        GL.glDeleteBuffers(len(up.buffers), up.buffers)
+        if up.textures:
+            GL.glDeleteTextures(len(up.textures), up.textures)
+        up.buffers, up.textures, up.draws = [], [], []
 
-    def render(self, upload: tuple[int, list[int], int], pv: np.ndarray, far: float) -> np.ndarray:
+    # ------------------------------------------------------------------ passes
+    @staticmethod
+    def _common_state() -> None:
         from OpenGL import GL
 
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo)
-        GL.glViewport(0, 0, self.w, self.h)
-        GL.glDisable(GL.GL_MULTISAMPLE)
         GL.glDisable(GL.GL_BLEND)
-        GL.glDisable(GL.GL_CULL_FACE)
+        GL.glCullFace(GL.GL_BACK)
+        GL.glFrontFace(GL.GL_CCW)
         GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
         GL.glEnable(GL.GL_DEPTH_TEST)
         GL.glDepthMask(GL.GL_TRUE)
         GL.glDepthFunc(GL.GL_LESS)
         GL.glDepthRange(0.0, 1.0)
-        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([np.inf, 0, 0, 0], dtype=np.float32))
-        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
-        GL.glUseProgram(self.program)
-        GL.glUniformMatrix4fv(self.loc_pv, 1, GL.GL_TRUE, pv.astype(np.float32))
-        GL.glUniform1f(self.loc_far, 1.0 / far)
-        vao, _, count = upload
-        GL.glBindVertexArray(vao)
-        GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT, ctypes.c_void_p(0))
-        GL.glBindVertexArray(0)
-        GL.glUseProgram(0)
-        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
-        buf = GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RED, GL.GL_FLOAT)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        z = np.frombuffer(bytes(buf) if not isinstance(buf, np.ndarray) else buf.tobytes(),
-                          dtype=np.float32).reshape(self.h, self.w)
-        return np.ascontiguousarray(z[::-1])  # GL rows run bottom-up
 
-    def delete(self) -> None:
+    def color(self, up: _GLScene, pv: np.ndarray, background: Sequence[float]) -> np.ndarray:
+        """(H, W, 3) uint8 colour, row 0 at the top."""
         from OpenGL import GL
 
-        GL.glDeleteFramebuffers(1, [self.fbo])
-        GL.glDeleteRenderbuffers(2, [self.rb_color, self.rb_depth])
-        GL.glDeleteProgram(self.program)
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_msaa[0])
+        GL.glViewport(0, 0, self.w, self.h)
+        GL.glEnable(GL.GL_MULTISAMPLE)
+        self._common_state()
+        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([*background, 1.0], dtype=np.float32))
+        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
+        GL.glUseProgram(self.color_program)
+        GL.glUniformMatrix4fv(self.loc_color_pv, 1, GL.GL_TRUE, pv)
+        GL.glActiveTexture(GL.GL_TEXTURE0)
+        GL.glBindVertexArray(up.vao_color)
+        for tex, first, count in up.draws:
+            _set_culling(first < up.closed)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+            GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
+                              ctypes.c_void_p(4 * first))
+        GL.glBindVertexArray(0)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+        GL.glUseProgram(0)
+        # same-size blit of a multisampled buffer = the average of each pixel's samples
+        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.fb_msaa[0])
+        GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self.fb_resolve[0])
+        GL.glBlitFramebuffer(0, 0, self.w, self.h, 0, 0, self.w, self.h,
+                             GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
+        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.fb_resolve[0])
+        out = np.empty((self.h, self.w, 3), dtype=np.uint8)
+        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
+        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGB, GL.GL_UNSIGNED_BYTE, out.ctypes.data)
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+        return out[::-1].copy()  # GL rows run bottom-up
 
+    def depth(self, up: _GLScene, pv: np.ndarray, far: float) -> np.ndarray:
+        """(H, W) float32 camera-space Z at pixel centres (``inf``: no surface), row 0 at top."""
+        from OpenGL import GL
 
-@dataclass
-class _Upload:
-    """GL resources of one scene: pyrender scene for colour, our VAOs for depth."""
-
-    meshes: list[_Mesh]
-    pr_scene: Any
-    camera: Any
-    camera_node: Any
-    pr_meshes: list[Any]
-    textures: list[Any]
-    gt: tuple[int, list[int], int] | None
-    meta: dict = field(default_factory=dict)
-
-
-def _camera_class() -> type:
-    import pyrender
-
-    class _CVCamera(pyrender.Camera):
-        """pyrender camera with a fixed, exact OpenCV-convention projection."""
-
-        def __init__(self, P: np.ndarray, near: float, far: float) -> None:
-            super().__init__(znear=near, zfar=far)
-            self.P = P
-
-        def get_projection_matrix(self, width: int | None = None,
-                                  height: int | None = None) -> np.ndarray:
-            return self.P
-
-    return _CVCamera
-
-
-def _color_renderer_class() -> type:
-    import pyrender
-    from OpenGL import GL
-
-    class _ColorRenderer(pyrender.Renderer):
-        """pyrender's renderer without its depth readback.
-
-        pyrender 0.1.45 reads and linearises its 24-bit MSAA depth after every
-        render; we never use it (our depth pass is exact), so the read-out keeps
-        only the MSAA colour resolve. Overrides a private method of the pinned
-        pyrender version.
-        """
-
-        def _read_main_framebuffer(self, scene: Any, flags: Any) -> tuple[np.ndarray, None]:
-            w, h = self._main_fb_dims
-            GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._main_fb_ms)
-            GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self._main_fb)
-            GL.glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
-            GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._main_fb)
-            buf = GL.glReadPixels(0, 0, w, h, GL.GL_RGB, GL.GL_UNSIGNED_BYTE)
-            GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-            color = np.frombuffer(buf, dtype=np.uint8).reshape(h, w, 3)
-            return np.ascontiguousarray(color[::-1]), None  # GL rows run bottom-up
-
-    return _ColorRenderer
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_gt[0])
+        GL.glViewport(0, 0, self.w, self.h)
+        GL.glDisable(GL.GL_MULTISAMPLE)
+        self._common_state()
+        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([np.inf, 0, 0, 0], dtype=np.float32))
+        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
+        GL.glUseProgram(self.gt_program)
+        GL.glUniformMatrix4fv(self.loc_gt_pv, 1, GL.GL_TRUE, pv)
+        GL.glUniform1f(self.loc_far, 1.0 / far)
+        GL.glBindVertexArray(up.vao_gt)
+        for first, count, cull in ((0, up.closed, True), (up.closed, up.count - up.closed, False)):
+            if count:
+                _set_culling(cull)
+                GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
+                                  ctypes.c_void_p(4 * first))
+        GL.glBindVertexArray(0)
+        GL.glUseProgram(0)
+        out = np.empty((self.h, self.w), dtype=np.float32)
+        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
+        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RED, GL.GL_FLOAT, out.ctypes.data)
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+        return out[::-1].copy()  # GL rows run bottom-up
 
 
 # ---------------------------------------------------------------------------- Renderer
@@ -502,7 +659,7 @@ class Renderer:
             )
         self.width, self.height = int(width), int(height)
         self._closed = True
-        self._held: dict[int, tuple[Any, _Upload]] = {}
+        self._held: dict[int, tuple[Any, _GLScene]] = {}
         self.backend = _choose_backend(backend)
         os.environ["PYOPENGL_PLATFORM"] = self.backend  # read once, by PyOpenGL's first import
         try:
@@ -513,8 +670,7 @@ class Renderer:
 
             GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
             GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
-            self._pr = _color_renderer_class()(self.width, self.height)
-            self._depth = _DepthPass(self.width, self.height)
+            self._passes = _Passes(self.width, self.height)
             self.gl_renderer = GL.glGetString(GL.GL_RENDERER).decode()
             self.gl_version = GL.glGetString(GL.GL_VERSION).decode()
         except GLBackendError:
@@ -524,7 +680,6 @@ class Renderer:
                 f"the {self.backend} backend failed to start in this process: "
                 f"{type(exc).__name__}: {exc}\n  fix (Debian): {_DEBIAN_FIX[self.backend]}"
             ) from exc
-        self._camera_cls = _camera_class()
         self._closed = False
 
     def _make_platform(self) -> Any:
@@ -549,10 +704,9 @@ class Renderer:
             return
         self._platform.make_current()
         for _, up in list(self._held.values()):
-            self._release(up)
+            self._passes.release(up)
         self._held.clear()
-        self._depth.delete()
-        self._pr.delete()
+        self._passes.delete()
         self._destroy_context()
         self._closed = True
 
@@ -584,49 +738,6 @@ class Renderer:
             raise RuntimeError("this Renderer is closed; open a new one (use it as a `with` block)")
 
     # -------------------------------------------------------------- uploads
-    def _upload(self, scene: Any) -> _Upload:
-        import pyrender
-
-        meshes, background, meta = _as_meshes(scene)
-        self._platform.make_current()
-        pr_scene = pyrender.Scene(bg_color=[*background, 1.0], ambient_light=[0.0, 0.0, 0.0])
-        textures: dict[int, Any] = {}
-        pr_meshes = []
-        for m in meshes:
-            tex = None
-            if m.image is not None:
-                key = id(m.image)
-                if key not in textures:
-                    src = np.asarray(m.image.convert("RGB"), dtype=np.uint8)
-                    textures[key] = pyrender.Texture(source=src, source_channels="RGB")
-                tex = textures[key]
-            mat = pyrender.MetallicRoughnessMaterial(
-                baseColorFactor=[1.0, 1.0, 1.0, 1.0], baseColorTexture=tex,
-                metallicFactor=0.0, roughnessFactor=1.0, doubleSided=True,
-            )
-            prim = pyrender.Primitive(
-                positions=m.positions, indices=m.faces, texcoord_0=m.uv,
-                color_0=m.color_mult, material=mat, mode=pyrender.GLTF.TRIANGLES,
-            )
-            mesh = pyrender.Mesh([prim], name=m.name)
-            pr_meshes.append(mesh)
-            pr_scene.add(mesh)
-        camera = self._camera_cls(np.eye(4), 0.1, 100.0)
-        node = pr_scene.add(camera, pose=np.eye(4))
-        gt = self._depth.upload(meshes)
-        return _Upload(meshes, pr_scene, camera, node, pr_meshes, list(textures.values()), gt, meta)
-
-    def _release(self, up: _Upload) -> None:
-        self._platform.make_current()
-        for mesh in up.pr_meshes:
-            for p in mesh.primitives:
-                p.delete()
-        for tex in up.textures:
-            tex.delete()
-        if up.gt is not None:
-            self._depth.release(up.gt)
-            up.gt = None
-
     @contextmanager
     def uploaded(self, scene: Any) -> Iterator[dict]:
         """Keep ``scene`` on the GPU for the ``with`` block; release it after.
@@ -640,13 +751,16 @@ class Renderer:
         if key in self._held:
             yield dict(self._held[key][1].meta)
             return
-        up = self._upload(scene)
+        meshes, background, meta = _as_meshes(scene)
+        self._platform.make_current()
+        up = self._passes.upload(meshes, {**meta, "background": background})
         self._held[key] = (scene, up)  # keeps `scene` alive so its id is not reused
         try:
-            yield dict(up.meta)
+            yield {k: v for k, v in up.meta.items() if k != "background"}
         finally:
             del self._held[key]
-            self._release(up)
+            self._platform.make_current()
+            self._passes.release(up)
 
     # -------------------------------------------------------------- render
     def render_view(self, scene: Any, rig: StereoRig, *, eye: str) -> ViewRender:
@@ -684,20 +798,12 @@ class Renderer:
             _check_depth_range(up.meshes, rig)
             return self._render(up, rig, eye)
 
-    def _render(self, up: _Upload, rig: StereoRig, eye: str) -> ViewRender:
-        import pyrender
-
+    def _render(self, up: _GLScene, rig: StereoRig, eye: str) -> ViewRender:
         self._platform.make_current()
         if (rig.width, rig.height) != (self.width, self.height):
             self.width, self.height = rig.width, rig.height
-            self._pr.viewport_width, self._pr.viewport_height = rig.width, rig.height
-            self._depth.resize(rig.width, rig.height)
-        P = _projection(rig)
-        pose = _camera_pose(rig, eye)
-        up.camera.P = P
-        up.camera.znear, up.camera.zfar = rig.near, rig.far
-        up.pr_scene.set_pose(up.camera_node, pose)
-        flags = pyrender.RenderFlags.OFFSCREEN | pyrender.RenderFlags.FLAT
-        color, _ = self._pr.render(up.pr_scene, flags)
-        depth = self._depth.render(up.gt, P @ np.linalg.inv(pose), rig.far)
+            self._passes.resize(rig.width, rig.height)
+        pv = (_projection(rig) @ np.linalg.inv(_camera_pose(rig, eye))).astype(np.float32)
+        color = self._passes.color(up, pv, up.meta["background"])
+        depth = self._passes.depth(up, pv, rig.far)
         return ViewRender(color=color, depth=depth)

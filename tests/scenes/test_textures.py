@@ -127,3 +127,57 @@ def test_band_limited_noise_is_normalised_and_periodic() -> None:
     # periodic: the wrap-around step is no larger than a typical interior step
     interior = np.abs(np.diff(noise, axis=1)).max()
     assert np.abs(noise[:, 0] - noise[:, -1]).max() <= interior
+
+
+# ---------------------------------------------------------------------------- reference formulas
+def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.ndarray:
+    """``make_texture`` written as its docstring's formulas, one temporary per step.
+
+    ``make_texture`` evaluates the same expressions in place (to save time and memory); the
+    bytes must not change.
+    """
+    h, w = texture_shape(spec, extent=extent)
+    du, dv = extent[0] / w, extent[1] / h
+    rng = np.random.default_rng(spec.seed)
+    if spec.kind == "constant" or spec.contrast == 0.0:
+        pattern = np.zeros((h, w))
+    elif spec.kind == "noise":
+        white = rng.standard_normal((h, w))
+        fu, fv = np.fft.rfftfreq(w, d=du), np.fft.fftfreq(h, d=dv)
+        radius = np.hypot(fv[:, None], fu[None, :])
+        gain = np.exp(-0.5 * ((radius - spec.frequency) / (spec.frequency / 3.0)) ** 2)
+        gain[0, 0] = 0.0
+        noise = np.fft.irfft2(np.fft.rfft2(white) * gain, s=(h, w))
+        noise = (noise - noise.mean()) / noise.std()
+        pattern = np.clip(noise / 2.5, -1.0, 1.0)
+    else:
+        u, v = (np.arange(w) + 0.5) * du, (np.arange(h) + 0.5) * dv
+        theta = np.radians(spec.angle)
+        along = np.cos(theta) * u[None, :] + np.sin(theta) * v[:, None]
+        across = -np.sin(theta) * u[None, :] + np.cos(theta) * v[:, None]
+        phase_a, phase_b = rng.uniform(0.0, 2 * np.pi, size=2)
+        gain = max(1.0, 1.0 / (spec.frequency * max(du, dv)) / np.pi)
+
+        def square(phase: np.ndarray) -> np.ndarray:
+            return np.clip(gain * np.sin(phase), -1.0, 1.0)
+
+        pattern = square(2 * np.pi * spec.frequency * along + phase_a)
+        if spec.kind == "checker":
+            pattern = pattern * square(2 * np.pi * spec.frequency * across + phase_b)
+    grey = np.clip(spec.mean + spec.contrast * 0.5 * pattern, 0.0, 1.0)
+    return np.stack([np.rint(grey * (255.0 * t)) for t in spec.color], -1).astype(np.uint8)
+
+
+@pytest.mark.parametrize("spec", [
+    TextureSpec(kind="noise", frequency=37.5, contrast=0.8, mean=0.5, seed=11),
+    TextureSpec(kind="noise", frequency=9.0, contrast=1.0, mean=0.3, color=(0.9, 0.9, 0.6),
+                seed=2),
+    TextureSpec(kind="checker", frequency=7.0, contrast=0.7, mean=0.55, angle=33.0, seed=4,
+                color=(0.8, 0.7, 0.9)),
+    TextureSpec(kind="stripes", frequency=5.0, contrast=1.0, mean=0.5, angle=100.0, seed=9),
+    TextureSpec(kind="constant", mean=0.42, color=(0.3, 1.0, 0.3)),
+])
+def test_make_texture_bytes_equal_the_reference_formulas(spec: TextureSpec) -> None:
+    extent = (1.7, 1.1)  # odd sizes: 8 px per cycle gives e.g. 510 x 330 at 37.5 cycles/m
+    np.testing.assert_array_equal(make_texture(spec, extent=extent),
+                                  reference_texture(spec, extent=extent))

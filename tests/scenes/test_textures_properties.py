@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import functools
+import importlib.util
+import types
+from pathlib import Path
+
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
@@ -13,6 +18,16 @@ _small = texture_specs().map(lambda t: TextureSpec(kind=t.kind, frequency=8.0, c
                                                    mean=t.mean, color=t.color, seed=t.seed,
                                                    angle=t.angle))
 _extent = st.tuples(st.floats(0.1, 1.0), st.floats(0.1, 1.0))
+
+
+@functools.cache
+def _sibling(name: str) -> types.ModuleType:
+    """A test module of this directory (not importable by name under --import-mode=importlib)."""
+    spec = importlib.util.spec_from_file_location(f"_sibling_{name[:-3]}",
+                                                  Path(__file__).with_name(name))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 @given(_small, _extent)
@@ -38,3 +53,14 @@ def test_zero_contrast_is_constant(spec: TextureSpec, extent) -> None:
                        color=spec.color, seed=spec.seed)
     img = make_texture(flat, extent=extent)
     assert (img == img[0, 0]).all()
+
+
+@given(texture_specs().filter(lambda t: 0.5 <= t.frequency <= 40.0), _extent)
+def test_texture_bytes_equal_the_reference_formulas(spec: TextureSpec, extent) -> None:
+    """In-place evaluation changes no byte (hand-picked examples:
+    ``test_textures.py::test_make_texture_bytes_equal_the_reference_formulas``)."""
+    from scenes.textures import make_texture
+
+    reference_texture = _sibling("test_textures.py").reference_texture
+    np.testing.assert_array_equal(make_texture(spec, extent=extent),
+                                  reference_texture(spec, extent=extent))

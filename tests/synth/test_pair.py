@@ -25,6 +25,18 @@ def test_occlusion_mask_hand_picked_row() -> None:
     assert mask.tolist() == [[128, 255, 255, 128, 128, 255, 255, 255, 255, 0]]
 
 
+def test_occlusion_mask_special_values() -> None:
+    # NaN and inf have no ground truth (0); x - d < -0.5 is outside (128); a right sample
+    # that is inf (no surface) fails the interpolation but the other bracketing sample
+    # still counts; float32 input is read as float64
+    dl = np.array([[np.nan, 0.6, 0.4, 1.0, 1.5, np.inf]], dtype=np.float32)
+    dr = np.array([[0.5, 0.4, np.inf, 1.5, 1.5, 1.5]], dtype=np.float32)
+    # x=1: xr=0.4, a=dr[0]=0.5 is within 0.5 of 0.6 (not within 0); x=2: xr=1.6, a=0.4
+    # equals d (b=inf); x=3: xr=2, a=inf and t=0 -> 128; x=4: xr=2.5, b=1.5 equals d
+    assert occlusion_mask(dl, dr).tolist() == [[0, 255, 255, 128, 255, 0]]
+    assert occlusion_mask(dl, dr, edge_tol=0.0).tolist() == [[0, 128, 255, 128, 255, 0]]
+
+
 def test_occlusion_mask_validates_shapes() -> None:
     with pytest.raises(ValueError, match=r"\(H, W\) arrays of one shape"):
         occlusion_mask(np.zeros((4, 5)), np.zeros((4, 6)))

@@ -78,6 +78,57 @@ def test_mesh_list_depth_and_texture_orientation(renderer: Renderer) -> None:
     assert top[0] > 100 > top[2] and bottom[2] > 100 > bottom[0]
 
 
+def _plain_quad(x0: float, x1: float, z: float = 2.0) -> trimesh.Trimesh:
+    """Untextured fronto-parallel quad over X in [x0, x1], Y in [-5, 5] (no visual colour)."""
+    v = [[x0, -5.0, z], [x1, -5.0, z], [x1, 5.0, z], [x0, 5.0, z]]
+    return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+@pytest.mark.gl
+def test_untextured_colour_is_the_shade_and_edges_are_antialiased(renderer: Renderer) -> None:
+    # The default light (0.3, 0.5, 1) on a quad facing the camera: shade = ambient 0.3 +
+    # 0.7 cos, display-encoded (1/2.2); the background is black.
+    rig = StereoRig(width=32, height=24, fx=20.0, fy=20.0, cx=15.5, cy=11.5, baseline=0.1)
+    # left edge through the centre of column 10: x = 20 X / 2 + 15.5 = 10 at X = -0.55
+    view = renderer.render_view([_plain_quad(-0.55, 5.0)], rig, eye="left")
+    cos = 1.0 / np.linalg.norm([0.3, 0.5, 1.0])
+    expected = 255 * (0.3 + 0.7 * cos) ** (1 / 2.2)  # 243.6
+    inner, edge = view.color[:, 12:].astype(float), view.color[:, 10].astype(float)
+    assert np.abs(inner - expected).max() <= 1.0  # grey: the same in all channels
+    assert (view.color[:, :9] == 0).all()
+    # 4x MSAA resolved to the mean of the samples: half of them are covered
+    assert (edge > 0.25 * expected).all() and (edge < 0.75 * expected).all()
+
+
+@pytest.mark.gl
+def test_closed_meshes_are_culled_without_changing_the_image(renderer: Renderer) -> None:
+    """Back faces of closed meshes are culled in both passes: no visible change."""
+    rig = StereoRig(width=48, height=32, fx=60.0, fy=60.0, cx=23.5, cy=15.5, baseline=0.1)
+    closed = scenes.build_meshes(scenes.get_preset("flying", seed=3))
+    assert not closed[0].metadata["double_sided"]  # flying's objects are closed solids
+    open_ = [m.copy() for m in closed]
+    for m in open_:
+        m.metadata["double_sided"] = True
+    a = renderer.render_view(closed, rig, eye="right")
+    b = renderer.render_view(open_, rig, eye="right")
+    np.testing.assert_array_equal(np.isfinite(a.depth), np.isfinite(b.depth))
+    fin = np.isfinite(a.depth)
+    # where a back face won a float32 tie on a silhouette, the front face wins now
+    np.testing.assert_allclose(a.depth[fin], b.depth[fin], rtol=1e-4)
+    assert (a.depth != b.depth).mean() <= 0.01
+    assert (np.abs(a.color.astype(int) - b.color) > 1).mean() <= 0.01
+    # culling is really on: a closed mesh wound inside out shows its far side
+    inside_out = closed[0].copy()
+    inside_out.faces = inside_out.faces[:, ::-1]
+    z = closed[0].vertices[:, 2]
+    obj = closed[0].vertices.mean(0)
+    aimed = StereoRig(width=16, height=12, fx=60.0, fy=60.0, cx=7.5 - 60.0 * obj[0] / obj[2],
+                      cy=5.5 - 60.0 * obj[1] / obj[2], baseline=0.1)
+    front = renderer.render_view([closed[0]], aimed, eye="left").depth[6, 8]
+    back = renderer.render_view([inside_out], aimed, eye="left").depth[6, 8]
+    assert z.min() <= front < back <= z.max()
+
+
 @pytest.mark.gl
 def test_no_surface_is_inf(renderer: Renderer) -> None:
     rig = StereoRig.default(32, 24)
