@@ -51,11 +51,12 @@ import types
 from dataclasses import dataclass
 from typing import Literal
 
+import numba
 import numpy as np
 
 from matcher import _adaptive_kernels
 from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
-from matcher.census import MAX_WINDOW, _codes_planar, _resolve_offsets, n_bits, n_words
+from matcher.census import MAX_WINDOW, _padded, _resolve_offsets, n_bits, n_words
 from matcher.edges import CANNY_HIGH, CANNY_LOW, CANNY_SIGMA, canny_edges
 from matcher.match import MatchResult, OpCounts
 
@@ -174,10 +175,10 @@ def select_windows(
         )
     sides = _window_sides(min_window, max_window)
     n = _check_int(n_decreases, "n_decreases", minimum=1, hint="the paper uses N = 5")
-    integral = np.zeros((edges.shape[0] + 1, edges.shape[1] + 1), dtype=np.int64)
-    np.cumsum(np.cumsum(edges, axis=0, dtype=np.int64), axis=1, out=integral[1:, 1:])
     out = np.empty(edges.shape, dtype=np.uint8)
-    _adaptive_kernels.select_windows_kernel(integral, sides, n, out)
+    _adaptive_kernels.select_windows_kernel(
+        np.ascontiguousarray(edges), sides, n, numba.get_num_threads(), np.zeros(1, np.int64), out
+    )
     return out
 
 
@@ -266,10 +267,8 @@ def match_awct(
     if right_windows == "left_map":
         wmap_r = wmap
     elif right_windows == "left_pixel":
-        wmap_r = wmap.copy()
-        width = wmap.shape[1]
-        for k in range(1, min(d, width)):
-            np.maximum(wmap_r[:, : width - k], wmap[:, k:], out=wmap_r[:, : width - k])
+        wmap_r = np.empty_like(wmap)
+        _adaptive_kernels.right_window_map(wmap, d, wmap_r)
     else:
         edges_r = canny_edges(grey_r, sigma=sigma, low=low, high=high)
         wmap_r = select_windows(
@@ -281,13 +280,14 @@ def match_awct(
         bits_of[s] = n_bits(int(s), pattern)
     total_bits = int(bits_of[max_window])
     offsets = _resolve_offsets(max_window, pattern)
-    cl = _codes_planar(grey_l, offsets, max_window)
-    cr = _codes_planar(grey_r, offsets, max_window)
     bl = bits_of[wmap]
     br = bl if wmap_r is wmap else bits_of[wmap_r]
     disp = np.empty(grey_l.shape, dtype=np.float32)
     rows = np.empty((grey_l.shape[0], 2), dtype=np.int64)
-    _adaptive_kernels.adaptive_wta_kernel(cl, cr, bl, br, d, disp, rows)
+    _adaptive_kernels.adaptive_wta_kernel(
+        _padded(grey_l, max_window), _padded(grey_r, max_window), offsets, max_window // 2, bl,
+        br, d, numba.get_num_threads(), np.zeros(1, np.int64), disp, rows,
+    )
     h, w = grey_l.shape
     ops = OpCounts(census_comparisons=int(bl.sum() + br.sum()), hamming_words=int(rows[:, 1].sum()))
     ct_ops = OpCounts(

@@ -1,8 +1,10 @@
 """Benchmark logic for :func:`matcher.match`: census vs OpenCV StereoBM / StereoSGBM.
 
 No CLI here (a thin command can call :func:`bench_match` and print :func:`format_rows`).
-Timings are wall-clock medians over ``repeats`` runs after one warm-up run (which also triggers
-numba compilation or cache loading), on a synthetic textured pair with a known constant shift.
+Timings are wall-clock medians (and minima) over ``repeats`` runs after one warm-up run of each
+configuration (which also triggers numba compilation or cache loading), on a synthetic textured
+pair with a known constant shift. The runs of one size are interleaved (round ``i`` times every
+configuration once), so that load from other processes affects ours and OpenCV's alike.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import gc
 import time
 import tracemalloc
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import cv2
 import numpy as np
@@ -46,6 +48,19 @@ class BenchRow:
     ratio_bm: float
     accuracy: float
     best: float
+
+    def keys(self):
+        """Field names, so that a row can be used where a mapping (a table row) is expected."""
+        return asdict(self).keys()
+
+    def get(self, key: str, default: object = None) -> object:
+        """The field ``key``, or ``default``."""
+        return getattr(self, key, default)
+
+    def __getitem__(self, key: str) -> object:
+        if key not in self.keys():
+            raise KeyError(key)
+        return getattr(self, key)
 
 
 def textured_pair(
@@ -84,15 +99,20 @@ def textured_pair(
     return to8(left), to8(right)
 
 
-def _time(fn, repeats: int) -> tuple[float, float]:
-    """(median, min) wall-clock seconds of ``repeats`` runs after one warm-up run."""
-    fn()  # warm-up: compile / load caches, OpenCV thread pool
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
+def _time_interleaved(fns: dict, repeats: int) -> dict[str, tuple[float, float]]:
+    """``{name: (median, min)}`` wall-clock seconds; round ``i`` runs every ``fns`` entry once.
+
+    Each function runs once first (warm-up: compile / load caches, OpenCV's thread pool).
+    """
+    for fn in fns.values():
         fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), float(np.min(times))
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t0)
+    return {name: (float(np.median(t)), float(np.min(t))) for name, t in times.items()}
 
 
 def bench_match(
@@ -107,7 +127,8 @@ def bench_match(
     ----------
     sizes : sequence of (width, height, max_disparity)
     repeats : int
-        Timed runs per configuration (median reported).
+        Timed runs per configuration (median and minimum reported), interleaved across the
+        configurations of one size.
     rng : int
         Seed of the synthetic pair.
 
@@ -126,17 +147,20 @@ def bench_match(
     for width, height, n_disp in sizes:
         shift = n_disp // 3
         left, right = textured_pair(width, height, shift=shift, rng=rng)
-        measured = {}
+        holder: dict[str, np.ndarray] = {}
+        fns = {}
         for label, method, window in RUNS:
-            holder = {}
 
-            def run(method=method, window=window, holder=holder):
-                holder["d"] = match(
+            def run(label=label, method=method, window=window):
+                holder[label] = match(
                     left, right, method=method, window=window, max_disparity=n_disp
                 ).disparity
 
-            seconds, best = _time(run, repeats)
-            disp = holder["d"][:, n_disp:]
+            fns[label] = run
+        timed = _time_interleaved(fns, repeats)
+        measured = {}
+        for label, (seconds, best) in timed.items():
+            disp = holder[label][:, n_disp:]
             acc = float(np.mean(np.abs(disp - shift) <= 1.0))
             measured[label] = (seconds, best, acc)
         t_sgbm = measured["StereoSGBM 5"][0]

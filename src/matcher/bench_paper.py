@@ -1,7 +1,9 @@
 """Timing of the seed paper's methods (CTHW, AWCT, AWSCT) against CT/SCT, same run, same pair.
 
 A benchmark, not a test: numbers depend on the machine and its load. Each method runs once to
-compile (numba) and then ``repeats`` times; the minimum wall time is reported.
+compile (numba) and then ``repeats`` times, interleaved with the other methods (round ``i`` runs
+every method once, so that load from other processes affects all alike); the minimum and the
+median wall time are reported.
 """
 
 from __future__ import annotations
@@ -46,14 +48,16 @@ def bench_pair(
     return full[:, :w].copy(), full[:, shift:].copy()
 
 
-def _best(fn: Callable[[], object], repeats: int) -> tuple[float, object]:
-    out = fn()
-    best = float("inf")
+def _interleaved(fns: dict, repeats: int) -> dict[str, tuple[float, float, object]]:
+    """``{name: (min, median, result)}`` seconds over ``repeats`` interleaved rounds."""
+    out = {name: fn() for name, fn in fns.items()}  # warm-up (numba compile / cache load)
+    times: dict[str, list[float]] = {name: [] for name in fns}
     for _ in range(repeats):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
+        for name, fn in fns.items():
+            t = time.perf_counter()
+            out[name] = fn()
+            times[name].append(time.perf_counter() - t)
+    return {n: (float(np.min(t)), float(np.median(t)), out[n]) for n, t in times.items()}
 
 
 def bench_paper_methods(
@@ -70,8 +74,10 @@ def bench_paper_methods(
     -------
     list of dict
         One row per method: ``method``, ``window``, ``seconds`` (best of ``repeats``),
-        ``baseline`` (the method it is compared with), ``ratio`` (seconds / baseline's
-        seconds), ``census_comparisons``, and ``reduction_ratio`` for the adaptive methods.
+        ``median_seconds``, ``baseline`` (the method it is compared with), ``ratio`` (seconds /
+        baseline's seconds, both best of ``repeats``), ``census_comparisons``, and
+        ``reduction_ratio`` (adaptive methods; ``None`` for the others, so that every row has
+        the same keys).
 
     Examples
     --------
@@ -84,26 +90,35 @@ def bench_paper_methods(
     d = max_disparity
     rows: list[dict[str, object]] = []
 
-    def add(method, window, seconds, res, baseline, base_seconds):
+    def add(method, window, timing, baseline, base_timing):
+        seconds, median, res = timing
         row = {
-            "method": method, "window": window, "seconds": seconds, "baseline": baseline,
-            "ratio": seconds / base_seconds if base_seconds else 1.0,
+            "method": method, "window": window, "seconds": seconds, "median_seconds": median,
+            "baseline": baseline,
+            "ratio": seconds / base_timing[0] if base_timing[0] else 1.0,
             "census_comparisons": res.ops.census_comparisons,
+            "reduction_ratio": getattr(res, "reduction_ratio", None),
         }
-        if hasattr(res, "reduction_ratio"):
-            row["reduction_ratio"] = res.reduction_ratio
         rows.append(row)
 
+    fns: dict[str, Callable[[], object]] = {}
     for base, adaptive, pattern in (("ct", "awct", "dense"), ("sct", "awsct", "sparse")):
-        tb, rb = _best(lambda b=base: match(left, right, method=b, window=max_window,
-                                            max_disparity=d), repeats)
-        add(base, max_window, tb, rb, base, tb)
-        ta, ra = _best(lambda p=pattern: match_awct(left, right, max_window=max_window,
-                                                    max_disparity=d, pattern=p), repeats)
-        add(adaptive, max_window, ta, ra, base, tb)
+        fns[f"{base} {max_window}"] = lambda b=base: match(
+            left, right, method=b, window=max_window, max_disparity=d
+        )
+        fns[f"{adaptive} {max_window}"] = lambda p=pattern: match_awct(
+            left, right, max_window=max_window, max_disparity=d, pattern=p
+        )
     for w in cthw_windows:
-        tb, rb = _best(lambda w=w: match(left, right, window=w, max_disparity=d), repeats)
-        add("ct", w, tb, rb, "ct", tb)
-        tc, rc = _best(lambda w=w: match_cthw(left, right, window=w, max_disparity=d), repeats)
-        add("cthw", w, tc, rc, "ct", tb)
+        fns[f"ct {w}"] = lambda w=w: match(left, right, window=w, max_disparity=d)
+        fns[f"cthw {w}"] = lambda w=w: match_cthw(left, right, window=w, max_disparity=d)
+    t = _interleaved(fns, repeats)
+    for base, adaptive in (("ct", "awct"), ("sct", "awsct")):
+        b = t[f"{base} {max_window}"]
+        add(base, max_window, b, base, b)
+        add(adaptive, max_window, t[f"{adaptive} {max_window}"], base, b)
+    for w in cthw_windows:
+        b = t[f"ct {w}"]
+        add("ct", w, b, "ct", b)
+        add("cthw", w, t[f"cthw {w}"], "ct", b)
     return rows

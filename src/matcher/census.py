@@ -140,13 +140,19 @@ def _kernel_image(grey: np.ndarray) -> np.ndarray:
 def _codes_planar(grey: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:
     """Census codes in the kernels' (H, n_words, W) layout; input trusted."""
     r = window // 2
-    padded = np.pad(_kernel_image(grey), r, mode="edge")
+    padded = _padded(grey, window)
     h, w = grey.shape
     out = np.empty((h, n_words(offsets.shape[0]), w), dtype=np.uint64)
-    kernel = _kernels.census_kernel_u8 if padded.dtype == np.uint8 else _kernels.census_kernel
-    with numba.parallel_chunksize(4):  # dynamic scheduling of rows
-        kernel(padded, np.ascontiguousarray(offsets), r, out)
+    _kernels.census_rows_kernel(
+        padded, np.ascontiguousarray(offsets, dtype=np.int64), r, numba.get_num_threads(),
+        np.zeros(1, np.int64), out,
+    )
     return out
+
+
+def _padded(grey: np.ndarray, window: int) -> np.ndarray:
+    """The grey image as the kernels take it, edge-padded by ``window // 2``; input trusted."""
+    return np.pad(_kernel_image(grey), window // 2, mode="edge")
 
 
 def census_transform(image: np.ndarray, *, window: int, pattern: object = "dense") -> np.ndarray:

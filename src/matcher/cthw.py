@@ -33,6 +33,7 @@ import types
 from dataclasses import dataclass
 from typing import Literal
 
+import numba
 import numpy as np
 
 from matcher import _adaptive_kernels
@@ -174,19 +175,20 @@ def modify_disparity(
     include_edge = _check_bool(include_edge, "include_edge")
     include_self = _check_bool(include_self, "include_self")
     steps = _check_max_path(max_path)
-    d = np.asarray(disparity, dtype=np.float64)
-    valid = np.isfinite(d)
-    if valid.any() and (d[valid].min() < 0 or not np.array_equal(d[valid], np.round(d[valid]))):
+    d = disparity if disparity.dtype in (np.float32, np.float64) else disparity.astype(np.float64)
+    di = np.empty(d.shape, dtype=np.int64)
+    ok, largest = _adaptive_kernels.disparity_to_int(d, di)
+    if not ok:
         raise ValueError(
             "disparity: expected integer-valued disparities >= 0 (inf = invalid); "
             "round a subpixel map first"
         )
     steps = min(steps, d.shape[0] + d.shape[1])  # no path is longer; keeps index math small
-    di = np.where(valid, d, -1).astype(np.int64)
-    n_disp = int(di.max()) + 1 if valid.any() else 1
+    n_disp = int(largest) + 1 if largest >= 0 else 1
     out = np.empty(di.shape, dtype=np.int64)
+    block = max(16, -(-di.shape[1] // (2 * numba.get_num_threads())))
     _adaptive_kernels.path_mode_kernel(
-        di, np.ascontiguousarray(edges), n_disp, include_edge, include_self, steps, out
+        di, np.ascontiguousarray(edges), n_disp, include_edge, include_self, steps, block, out
     )
     return np.where(out >= 0, out, np.inf).astype(np.float32)
 
@@ -290,7 +292,8 @@ def match_cthw(
         coarse.disparity, edges, include_edge=include_edge, include_self=include_self,
         max_path=max_path,
     )
-    full = np.repeat(np.repeat(modified, 2, axis=0), 2, axis=1)[:h, :w] * np.float32(2.0)
+    m2 = modified * np.float32(2.0)
+    full = np.broadcast_to(m2[:, None, :, None], (h2, 2, w2, 2)).reshape(2 * h2, 2 * w2)[:h, :w]
     bits = n_bits(window, pattern)
     ct_ops = OpCounts(
         census_comparisons=2 * h * w * bits,

@@ -18,7 +18,7 @@ import numpy as np
 
 from matcher import _kernels
 from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
-from matcher.census import _check_side, _codes_planar, _resolve_offsets, n_words
+from matcher.census import _check_side, _padded, _resolve_offsets, n_words
 
 __all__ = ["METHODS", "MatchResult", "OpCounts", "match"]
 
@@ -29,7 +29,7 @@ _PAPER_METHODS = ("cthw", "awct", "awsct")
 # Per-thread budget for the (strip, D, W) cost buffers of the aggregated path.
 _STRIP_BUDGET_BYTES = 48 * 2**20
 # Rows per work item of the per-pixel (non-aggregated) path.
-_ROWS_PER_ITEM = 4
+_ROWS_PER_ITEM = 2
 
 
 @dataclass(frozen=True)
@@ -275,15 +275,13 @@ def match(
             f"aggregate: {aggregate}x{aggregate} boxes of {bits}-bit costs overflow uint32; "
             "use a smaller aggregate or window"
         )
-    codes_l = _codes_planar(grey_l, offsets, window)
-    codes_r = _codes_planar(grey_r, offsets, window)
     disp = np.empty(grey_l.shape, dtype=np.float32)
     strip = _strip_rows(max_disparity, grey_l.shape[1], half) if half else _ROWS_PER_ITEM
-    with numba.parallel_chunksize(1):  # dynamic scheduling of the strips
-        _kernels.fused_match_kernel(
-            codes_l, codes_r, max_disparity, half, lr_tolerance if lr_check else -1, subpixel,
-            strip, numba.get_num_threads(), disp,
-        )
+    _kernels.census_match_kernel(
+        _padded(grey_l, window), _padded(grey_r, window), offsets, window // 2, max_disparity,
+        half, lr_tolerance if lr_check else -1, subpixel, strip, numba.get_num_threads(),
+        np.zeros(1, np.int64), disp,
+    )
     params["n_bits"] = bits
     return MatchResult(
         disp, _census_ops(grey_l.shape, bits, max_disparity), method, window, max_disparity,
