@@ -131,10 +131,16 @@ def format_markdown(rows: Sequence[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_table(rows: Sequence[dict], out: Path, name: str) -> str:
-    """Write ``rows`` to ``out/<name>.md`` and ``out/<name>.csv`` atomically; return the Markdown."""
+def write_table(rows: Sequence, out: Path, name: str) -> str:
+    """Write ``rows`` to ``out/<name>.md`` and ``out/<name>.csv`` atomically; return the Markdown.
+
+    ``rows`` are dicts or dataclass instances (one per table row, same fields).
+    """
+    import dataclasses
+
     from synth.io._atomic import atomic_write_bytes
 
+    rows = [dataclasses.asdict(r) if dataclasses.is_dataclass(r) else dict(r) for r in rows]
     out.mkdir(parents=True, exist_ok=True)
     text = format_markdown(rows)
     buf = io.StringIO()
