@@ -229,6 +229,63 @@ def paper(data, size, out) -> None:
     click.echo(f"report: {report}")
 
 
+@main.command()
+@click.argument("config")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path))
+@click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1))
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+def study(config, out, workers, backend) -> None:
+    """Texture frequency x window x method study from CONFIG (a .toml file or a shipped name).
+
+    Resumable: rerun the same command and only the missing cells are computed.
+    """
+    from synth.study import run_study
+
+    try:
+        path = run_study(config, out=out, workers=workers, progress=True, backend=backend)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
+    click.echo(f"results: {path / 'results.csv'}, summary: {path / 'summary.md'}")
+
+
+@main.group()
+def golden() -> None:
+    """Golden references: exact matcher outputs and tolerant render checks (golden/)."""
+
+
+@golden.command("check")
+@click.option("--root", default="golden", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--render/--no-render", default=True, show_default=True,
+              help="Also re-render the golden scenes (needs GL) and compare within tolerances.")
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+def golden_check_cmd(root, render, backend) -> None:
+    """Compare fresh matcher outputs (exactly) and renders (within tolerances) with golden/."""
+    from synth.golden import golden_check
+
+    try:
+        report = golden_check(root, backend=backend, render=render)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
+    click.echo(report.summary())
+    if not report.ok:
+        raise SystemExit(1)
+
+
+@golden.command("update")
+@click.option("--root", default="golden", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--backend", default="auto", show_default=True,
+              type=click.Choice(["auto", "egl", "osmesa"]))
+def golden_update_cmd(root, backend) -> None:
+    """Regenerate golden/ and print what changed."""
+    from synth.golden import format_changes, golden_update
+
+    click.echo(format_changes(golden_update(root, backend=backend)))
+
+
 # --------------------------------------------------------------------------- benchmarks
 @main.group()
 def bench() -> None:
