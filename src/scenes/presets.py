@@ -97,7 +97,7 @@ def _moebius(seed: int) -> SceneSpec:
     s = _seeds(seed, 2)
     strip = ObjectSpec("moebius", Pose(translation=(0.05, 0.0, 2.0),
                                        rotation_deg=(25.0, 35.0, 0.0)),
-                       (0.55, 0.35), _noise(2.0, s[0]), name="moebius", segments=256)
+                       (0.55, 0.35), _noise(2.0, s[0]), name="moebius", segments=128)
     return SceneSpec("moebius", (strip, _wall(4.0, s[1])), seed=seed,
                      description=PRESETS["moebius"].description)
 
@@ -137,7 +137,7 @@ def _flying(seed: int) -> SceneSpec:
                               seed=int(rng.integers(0, 2**31)), angle=r4(rng.uniform(0.0, 180.0)))
         pose = Pose(translation=(r4(x), r4(y), r4(z)),
                     rotation_deg=tuple(r4(a) for a in rng.uniform(0.0, 360.0, size=3)))
-        objects.append(ObjectSpec(kind, pose, size, texture, name=f"{kind}{i}", segments=48))
+        objects.append(ObjectSpec(kind, pose, size, texture, name=f"{kind}{i}", segments=32))
     wall = _wall(wall_depth, int(rng.integers(0, 2**31)))
     return SceneSpec("flying", (*objects, wall), seed=seed,
                      description=PRESETS["flying"].description)
@@ -146,7 +146,7 @@ def _flying(seed: int) -> SceneSpec:
 def _terrain(seed: int) -> SceneSpec:
     s = _seeds(seed, 3)
     ground = ObjectSpec("terrain", Pose(translation=(_BASELINE / 2, 1.5, 16.5)), (30.0, 30.0, 0.35),
-                        _noise(15.0, s[0]), name="terrain", segments=96, seed=s[1])
+                        _noise(15.0, s[0]), name="terrain", segments=48, seed=s[1])
     light = LightSpec(direction=(0.4, 1.0, 0.6))
     return SceneSpec("terrain", (ground, _wall(36.0, s[2])), light=light, seed=seed,
                      description=PRESETS["terrain"].description)

@@ -18,14 +18,21 @@ import numpy as np
 from scenes.spec import TextureSpec
 
 __all__ = ["make_texture", "texture_shape", "band_limited_noise", "PIXELS_PER_CYCLE",
-           "MAX_TEXTURE_SIDE"]
+           "NOISE_PIXELS_PER_CYCLE", "NOISE_BAND", "MAX_TEXTURE_SIDE"]
 
-#: Default sampling: texture pixels per period of the centre frequency. The noise band reaches
-#: about 1.7 x the centre frequency, which keeps >= 4.7 pixels per cycle.
+#: Default sampling of checker and stripes: texture pixels per period (edges are antialiased
+#: over about one pixel, so this sets their sharpness).
 PIXELS_PER_CYCLE = 8.0
+#: The noise spectrum is the Gaussian annulus ``exp(-(|f| - f0)**2 / (2 sigma**2))``,
+#: ``sigma = f0 / 3``, cut to ``|f| - f0 <= NOISE_BAND * sigma`` (the cut drops ~0.5 % of the
+#: power): nothing above ``(1 + NOISE_BAND / 3) * f0 = 5/3 f0`` is present.
+NOISE_BAND = 2.0
+#: Default sampling of noise: 4 pixels per period of its highest frequency (5/3 of the centre
+#: frequency), i.e. 20/3 pixels per period of the centre frequency. Mipmapping filters the rest.
+NOISE_PIXELS_PER_CYCLE = 4.0 * (1.0 + NOISE_BAND / 3.0)
 #: Largest texture side in pixels (sampling is reduced to stay under it).
 MAX_TEXTURE_SIDE = 2048
-_CONSTANT_SIDE = 8
+_CONSTANT_SIDE = 6
 _NOISE_RELATIVE_SIGMA = 1.0 / 3.0  # Gaussian annulus width / centre frequency
 _NOISE_CLIP_SIGMAS = 2.5  # noise is scaled so +-2.5 standard deviations span [-1, 1]
 
@@ -35,14 +42,22 @@ def texture_shape(spec: TextureSpec, *, extent: tuple[float, float],
                   max_side: int = MAX_TEXTURE_SIDE) -> tuple[int, int]:
     """Image shape ``(H, W)`` that :func:`make_texture` produces for these arguments.
 
-    With ``pixels_per_metre=None`` the sampling is ``PIXELS_PER_CYCLE * spec.frequency``
-    (``"constant"``: ``_CONSTANT_SIDE`` pixels along the longer side), reduced where needed so
-    that no side exceeds ``max_side``. Each side has at least 2 pixels.
+    With ``pixels_per_metre=None`` the sampling is ``NOISE_PIXELS_PER_CYCLE * spec.frequency``
+    for noise, ``PIXELS_PER_CYCLE * spec.frequency`` for checker and stripes (``"constant"``:
+    ``_CONSTANT_SIDE`` pixels along the longer side), reduced where needed so that no side
+    exceeds ``max_side``. Each side is then adjusted, within ``[3, max_side]``: never a power of
+    two (llvmpipe, the CPU rasteriser, compiles separate shader variants for power-of-two
+    textures, at ~75 ms each per process), and for noise the next length up whose only prime
+    factors are 2, 3 and 5 (fast FFTs).
 
     Examples
     --------
-    >>> texture_shape(TextureSpec(frequency=10.0), extent=(2.0, 1.0))
+    >>> texture_shape(TextureSpec(kind="checker", frequency=10.0), extent=(2.0, 1.0))
     (80, 160)
+    >>> texture_shape(TextureSpec(kind="noise", frequency=10.0), extent=(2.0, 1.0))
+    (72, 135)
+    >>> texture_shape(TextureSpec(kind="stripes", frequency=8.0), extent=(2.0, 1.0))
+    (65, 129)
     """
     width, height = _check_extent(extent)
     if max_side < 2:
@@ -50,6 +65,8 @@ def texture_shape(spec: TextureSpec, *, extent: tuple[float, float],
     if pixels_per_metre is None:
         if spec.kind == "constant":
             ppm = _CONSTANT_SIDE / max(width, height)
+        elif spec.kind == "noise":
+            ppm = NOISE_PIXELS_PER_CYCLE * spec.frequency
         else:
             ppm = PIXELS_PER_CYCLE * spec.frequency
     else:
@@ -57,7 +74,46 @@ def texture_shape(spec: TextureSpec, *, extent: tuple[float, float],
         if not (math.isfinite(ppm) and ppm > 0):
             raise ValueError(f"pixels_per_metre must be finite and > 0, got {pixels_per_metre!r}")
     ppm = min(ppm, max_side / max(width, height))
-    return (max(2, min(max_side, round(height * ppm))), max(2, min(max_side, round(width * ppm))))
+    smooth = spec.kind == "noise"
+    return (_side(round(height * ppm), max_side, smooth=smooth),
+            _side(round(width * ppm), max_side, smooth=smooth))
+
+
+def _side(n: int, max_side: int, *, smooth: bool) -> int:
+    """Texture side near ``n`` (at least 3, at most ``max_side``) that is not a power of two
+    and, with ``smooth``, is 5-smooth: the next such length up, else the largest one below."""
+    n = max(3, min(n, max_side))
+    if smooth:
+        lengths = _FAST_LENGTHS
+        k = int(np.searchsorted(lengths, n))
+        if k < lengths.size and lengths[k] <= max_side:
+            return int(lengths[k])
+        k = int(np.searchsorted(lengths, max_side, side="right")) - 1
+        return int(lengths[k]) if k >= 0 else n
+    if n & (n - 1) == 0:  # a power of two
+        return n + 1 if n + 1 <= max_side else (n - 1 if n > 3 else n)
+    return n
+
+
+def _fast_lengths(limit: int) -> np.ndarray:
+    """Sorted integers in [3, limit] of the form ``2**a * 3**b * 5**c``, powers of two excluded."""
+    out = []
+    p5 = 1
+    while p5 <= limit:
+        p35 = p5
+        while p35 <= limit:
+            m = p35
+            while m <= limit:
+                out.append(m)
+                m *= 2
+            p35 *= 3
+        p5 *= 5
+    lengths = np.array(sorted(n for n in out if n >= 3 and n & (n - 1)), dtype=np.int64)
+    lengths.setflags(write=False)
+    return lengths
+
+
+_FAST_LENGTHS = _fast_lengths(1 << 20)
 
 
 def _check_extent(extent: tuple[float, float]) -> tuple[float, float]:
@@ -74,9 +130,13 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
                        pixel_size: tuple[float, float], rng: np.random.Generator) -> np.ndarray:
     """Zero-mean, unit-variance isotropic noise with its power around ``frequency``.
 
-    White Gaussian noise filtered in the Fourier domain by the Gaussian annulus
-    ``exp(-(|f| - frequency)**2 / (2 sigma**2))``, ``sigma = frequency / 3``. The result is
-    periodic over the image (it tiles seamlessly).
+    Gaussian noise whose spectrum is the Gaussian annulus
+    ``exp(-(|f| - frequency)**2 / (2 sigma**2))``, ``sigma = frequency / 3``, cut to
+    ``||f| - frequency| <= NOISE_BAND * sigma`` (and zero at DC). It is synthesised in the
+    Fourier domain: independent complex Gaussian coefficients (drawn from ``rng``, in float32,
+    only inside the band) times the annulus, then one inverse real FFT in float32. This is
+    white noise filtered by the annulus, in distribution. The result is periodic over the
+    image (it tiles seamlessly).
 
     Parameters
     ----------
@@ -87,50 +147,55 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
     pixel_size : (du, dv) tuple of float
         Pixel spacing along columns and rows.
     rng : numpy.random.Generator
-        Source of the white noise.
+        Source of the random coefficients.
 
     Returns
     -------
-    noise : (H, W) float64 array
+    noise : (H, W) float32 array
+        All zeros if the band lies entirely beyond the grid's Nyquist frequency.
 
     Examples
     --------
     >>> n = band_limited_noise((64, 64), frequency=8.0, pixel_size=(1 / 64, 1 / 64),
     ...                        rng=np.random.default_rng(0))
-    >>> n.shape, abs(float(n.mean())) < 1e-9, round(float(n.std()), 6)
-    ((64, 64), True, 1.0)
+    >>> n.shape, n.dtype.name, abs(float(n.mean())) < 1e-6, round(float(n.std()), 4)
+    ((64, 64), 'float32', True, 1.0)
     """
-    h, w = shape
-    white = rng.standard_normal((h, w))
-    spectrum = np.fft.rfft2(white)
-    del white
-    spectrum *= _annulus_gain(h, w, float(frequency), float(pixel_size[0]), float(pixel_size[1]))
+    h, w = (int(n) for n in shape)
+    index, gain = _annulus(h, w, float(frequency), float(pixel_size[0]), float(pixel_size[1]))
+    spectrum = np.zeros((h, w // 2 + 1), dtype=np.complex64)
+    coefficients = rng.standard_normal((2, index.size), dtype=np.float32)
+    coefficients *= gain
+    flat = spectrum.reshape(-1)
+    flat.real[index] = coefficients[0]
+    flat.imag[index] = coefficients[1]
     noise = np.fft.irfft2(spectrum, s=(h, w))
     del spectrum
-    # In place, with the arithmetic of ``(noise - noise.mean()) / noise.std()``: same bits.
-    mean = noise.mean()
-    noise -= mean
-    std = math.sqrt(np.add.reduce(np.square(noise), axis=None) / noise.size)
-    if std == 0:  # band entirely beyond the grid's Nyquist frequency
-        return noise
-    noise /= std
+    noise -= noise.mean(dtype=np.float64)
+    std = math.sqrt(float(np.square(noise).mean(dtype=np.float64)))
+    if std > 0:
+        noise *= np.float32(1.0 / std)
     return noise
 
 
-@functools.lru_cache(maxsize=16)
-def _annulus_gain(h: int, w: int, frequency: float, du: float, dv: float) -> np.ndarray:
-    """Read-only (h, w // 2 + 1) Gaussian annulus of :func:`band_limited_noise` (zero at DC).
+@functools.lru_cache(maxsize=32)
+def _annulus(h: int, w: int, frequency: float, du: float, dv: float
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Flat indices into the (h, w // 2 + 1) rfft grid where the cut annulus of
+    :func:`band_limited_noise` is non-zero, and its float32 gain there (read-only arrays).
 
     Cached: scenes rebuilt with new seeds reuse their textures' shapes and frequencies.
     """
     fu = np.fft.rfftfreq(w, d=du)
     fv = np.fft.fftfreq(h, d=dv)
-    radius = np.hypot(fv[:, None], fu[None, :])
+    offset = np.hypot(fv[:, None], fu[None, :]).ravel() - frequency
     sigma = _NOISE_RELATIVE_SIGMA * frequency
-    gain = np.exp(-0.5 * ((radius - frequency) / sigma) ** 2)
-    gain[0, 0] = 0.0  # zero mean
+    index = np.flatnonzero(np.abs(offset) <= NOISE_BAND * sigma)
+    index = index[index != 0]  # zero mean
+    gain = np.exp(-0.5 * (offset[index] / sigma) ** 2).astype(np.float32)
+    index.setflags(write=False)
     gain.setflags(write=False)
-    return gain
+    return index, gain
 
 
 def _soft_square(phase: np.ndarray, pixels_per_cycle: float) -> np.ndarray:
@@ -140,15 +205,15 @@ def _soft_square(phase: np.ndarray, pixels_per_cycle: float) -> np.ndarray:
     """
     gain = max(1.0, pixels_per_cycle / math.pi)
     np.sin(phase, out=phase)
-    phase *= gain
+    phase *= np.float32(gain)
     return np.clip(phase, -1.0, 1.0, out=phase)
 
 
 def _wave_phase(along: np.ndarray, frequency: float, offset: float) -> np.ndarray:
-    """``2 pi frequency along + offset`` (a new array), evaluated as written."""
+    """``2 pi frequency along + offset`` evaluated in float64, returned as a new float32 array."""
     phase = np.multiply(along, 2 * math.pi * frequency)
     phase += offset
-    return phase
+    return phase.astype(np.float32)
 
 
 def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
@@ -167,8 +232,9 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
       ``angle`` degrees from ``u`` toward ``v`` (``angle=0``: vertical stripes).
     - ``"constant"``: ``p = 0``.
 
-    The random phase (checker, stripes) and the noise come from
-    ``np.random.default_rng(spec.seed)`` only.
+    Patterns and grey levels are computed in float32 (checker and stripe phases in float64). The random phase (checker, stripes)
+    and the noise come from ``np.random.default_rng(spec.seed)`` only: the same arguments give
+    the same bytes.
 
     Parameters
     ----------
@@ -177,7 +243,8 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
     extent : (width, height) tuple of float
         Size in metres of the surface patch the image covers (``u`` along width).
     pixels_per_metre : float, optional
-        Sampling; default ``PIXELS_PER_CYCLE * spec.frequency`` (see :func:`texture_shape`).
+        Sampling; default ``NOISE_PIXELS_PER_CYCLE * spec.frequency`` for noise,
+        ``PIXELS_PER_CYCLE * spec.frequency`` otherwise (see :func:`texture_shape`).
     max_side : int
         Cap on either image side; sampling is reduced to fit. Beyond the resulting Nyquist
         frequency, noise loses its high band and checker/stripes alias.
@@ -191,7 +258,7 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
     >>> img = make_texture(TextureSpec(kind="checker", frequency=2.0, contrast=1.0),
     ...                    extent=(1.0, 0.5))
     >>> img.shape, img.dtype.name
-    ((8, 16, 3), 'uint8')
+    ((9, 17, 3), 'uint8')
     >>> make_texture(TextureSpec(contrast=0.0, mean=0.5), extent=(1.0, 1.0))[0, 0].tolist()
     [128, 128, 128]
     """
@@ -202,31 +269,31 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
                          max_side=max_side)
     du, dv = width / w, height / h
     rng = np.random.default_rng(spec.seed)
-    # Array expressions below are evaluated in place, in the order the formulas read, so
-    # the bytes do not depend on the temporaries saved.
     if spec.kind == "constant" or spec.contrast == 0.0:
-        pattern = np.zeros((h, w))
-    elif spec.kind == "noise":
-        pattern = band_limited_noise((h, w), frequency=spec.frequency, pixel_size=(du, dv),
-                                     rng=rng)
-        pattern /= _NOISE_CLIP_SIGMAS
-        np.clip(pattern, -1.0, 1.0, out=pattern)
+        grey = np.full((h, w), np.float32(spec.mean))
     else:
-        u = (np.arange(w) + 0.5) * du
-        v = (np.arange(h) + 0.5) * dv
-        theta = math.radians(spec.angle)
-        along = math.cos(theta) * u[None, :] + math.sin(theta) * v[:, None]
-        phase_a, phase_b = rng.uniform(0.0, 2 * math.pi, size=2)
-        px_per_cycle = 1.0 / (spec.frequency * max(du, dv))
-        pattern = _soft_square(_wave_phase(along, spec.frequency, phase_a), px_per_cycle)
-        if spec.kind == "checker":
-            across = -math.sin(theta) * u[None, :] + math.cos(theta) * v[:, None]
-            pattern *= _soft_square(_wave_phase(across, spec.frequency, phase_b), px_per_cycle)
-    # grey = clip(mean + contrast * 0.5 * pattern, 0, 1)
-    grey = pattern
-    grey *= spec.contrast * 0.5
-    grey += spec.mean
-    np.clip(grey, 0.0, 1.0, out=grey)
+        if spec.kind == "noise":
+            pattern = band_limited_noise((h, w), frequency=spec.frequency, pixel_size=(du, dv),
+                                         rng=rng)
+            pattern *= np.float32(1.0 / _NOISE_CLIP_SIGMAS)
+        else:
+            u = (np.arange(w) + 0.5) * du
+            v = (np.arange(h) + 0.5) * dv
+            theta = math.radians(spec.angle)
+            along = math.cos(theta) * u[None, :] + math.sin(theta) * v[:, None]
+            phase_a, phase_b = rng.uniform(0.0, 2 * math.pi, size=2)
+            px_per_cycle = 1.0 / (spec.frequency * max(du, dv))
+            pattern = _soft_square(_wave_phase(along, spec.frequency, phase_a), px_per_cycle)
+            if spec.kind == "checker":
+                across = -math.sin(theta) * u[None, :] + math.cos(theta) * v[:, None]
+                pattern *= _soft_square(_wave_phase(across, spec.frequency, phase_b),
+                                        px_per_cycle)
+        # grey = clip(mean + contrast * 0.5 * clip(pattern, -1, 1), 0, 1)
+        np.clip(pattern, -1.0, 1.0, out=pattern)
+        grey = pattern
+        grey *= np.float32(spec.contrast * 0.5)
+        grey += np.float32(spec.mean)
+        np.clip(grey, 0.0, 1.0, out=grey)
     out = np.empty((h, w, 3), dtype=np.uint8)
     level = np.empty_like(grey)
     done: dict[float, int] = {}
@@ -234,7 +301,7 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
         if tint in done:  # same tint as an earlier channel: same bytes
             out[:, :, channel] = out[:, :, done[tint]]
             continue
-        np.multiply(grey, 255.0 * tint, out=level)
+        np.multiply(grey, np.float32(255.0 * tint), out=level)
         np.rint(level, out=level)
         out[:, :, channel] = level
         done[tint] = channel

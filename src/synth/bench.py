@@ -74,7 +74,8 @@ def bench_render(
     for w, h in sizes:
         rig = StereoRig.default(w, h)
         with Renderer(w, h, backend=backend) as renderer, tempfile.TemporaryDirectory() as tmp:
-            render_pair(get_preset(names[0], seed=0), rig, renderer=renderer)  # warm-up
+            for name in names:  # warm-up: shader variants compile once per process
+                render_pair(get_preset(name, seed=0), rig, renderer=renderer)
             for name in names:
                 build = draw = write = 0.0
                 cpu0, wall0 = time.process_time(), time.perf_counter()

@@ -430,8 +430,9 @@ class _Passes:
         self.gt_program = _program(_GT_VERT, _GT_FRAG)
         self.loc_gt_pv = GL.glGetUniformLocation(self.gt_program, "PV")
         self.loc_far = GL.glGetUniformLocation(self.gt_program, "inv_far")
-        # untextured meshes sample a white texel: colour = shade exactly
-        self.white = self._texture(np.full((1, 1, 3), 255, dtype=np.uint8))
+        # untextured meshes sample a white texture: colour = shade exactly (3 x 3: llvmpipe
+        # compiles other shader variants for power-of-two textures; scenes avoid them too)
+        self.white = self._texture(np.full((3, 3, 3), 255, dtype=np.uint8))
         self.fbs: list[tuple[int, list[int]]] = []
         self.resize(width, height)
 

@@ -10,6 +10,7 @@ import trimesh
 
 from scenes.primitives import OPEN_KINDS, build_mesh, build_meshes, plane_equation
 from scenes.spec import ObjectSpec, Pose, SceneSpec, TextureSpec
+from scenes.textures import PIXELS_PER_CYCLE
 
 _POSE = Pose(translation=(0.3, -0.2, 4.0), rotation_deg=(17.0, -33.0, 71.0))
 _TEX = TextureSpec(frequency=20.0, seed=4)
@@ -92,12 +93,13 @@ def test_box_has_six_separately_textured_faces() -> None:
 @pytest.mark.parametrize("kind", ["box", "cylinder"])
 def test_atlas_charts_do_not_overlap_and_keep_metric_scale(kind: str) -> None:
     size = (0.3, 0.5, 0.7) if kind == "box" else (0.4, 0.9)
-    mesh = build_mesh(ObjectSpec(kind, Pose(), size, _TEX, segments=16))
+    tex = TextureSpec(kind="checker", frequency=20.0, seed=4)  # sampled at exactly 8 px/cycle
+    mesh = build_mesh(ObjectSpec(kind, Pose(), size, tex, segments=16))
     uv = mesh.visual.uv
     assert uv.min() >= 0.0 and uv.max() <= 1.0
     w, h = mesh.visual.material.image.size
     # texture-space area (in m^2, via pixels at the texture's own sampling) equals surface area
-    ppm = 8 * _TEX.frequency
+    ppm = PIXELS_PER_CYCLE * tex.frequency
     tri = uv[mesh.faces] * [w / ppm, h / ppm]
     d1, d2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     uv_area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]).sum()
@@ -167,3 +169,20 @@ def test_build_meshes_keeps_order() -> None:
         build_meshes(objs)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="ObjectSpec"):
         build_mesh("sphere")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("kind", "size", "degrees"), [
+    ("sphere", (0.7,), 4.0), ("cylinder", (0.3, 0.8), 4.0), ("box", (0.3, 0.5, 0.7), 0.0),
+    ("moebius", (1.0, 0.4), 4.0),
+    ("terrain", (20.0, 10.0, 0.4), 12.0),  # coarse relief: the two weightings differ more
+])
+def test_vertex_normals_are_unit_and_close_to_trimesh(kind: str, size: tuple,
+                                                      degrees: float) -> None:
+    """Precomputed area-weighted normals agree with trimesh's angle-weighted ones."""
+    mesh = build_mesh(ObjectSpec(kind, _POSE, size, _TEX, segments=24, seed=1))
+    ours = mesh.vertex_normals
+    ref = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).vertex_normals
+    used = np.unique(mesh.faces)
+    np.testing.assert_allclose(np.linalg.norm(ours[used], axis=1), 1.0, atol=1e-12)
+    cos = np.einsum("ij,ij->i", ours[used], ref[used])
+    assert cos.min() >= math.cos(math.radians(degrees)) - 1e-12

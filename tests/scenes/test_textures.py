@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from scenes.spec import TextureSpec
-from scenes.textures import MAX_TEXTURE_SIDE, band_limited_noise, make_texture, texture_shape
+from scenes.textures import (
+    MAX_TEXTURE_SIDE,
+    NOISE_BAND,
+    band_limited_noise,
+    make_texture,
+    texture_shape,
+)
 
 
 def _dominant_frequency(grey: np.ndarray, extent: tuple[float, float]) -> float:
@@ -98,13 +104,20 @@ def test_full_contrast_noise_uses_the_range() -> None:
 
 
 def test_shape_follows_extent_and_sampling() -> None:
-    spec = TextureSpec(frequency=10.0)
-    assert texture_shape(spec, extent=(2.0, 1.0)) == (80, 160)  # 8 px per cycle
-    assert make_texture(spec, extent=(2.0, 1.0), pixels_per_metre=20.0).shape == (20, 40, 3)
-    big = texture_shape(TextureSpec(frequency=1000.0), extent=(3.0, 1.0))
-    assert big == (683, MAX_TEXTURE_SIDE)  # capped, aspect kept
-    assert texture_shape(spec, extent=(1e-6, 1e-6)) == (2, 2)
-    assert texture_shape(TextureSpec(kind="constant"), extent=(4.0, 1.0)) == (2, 8)
+    checker = TextureSpec(kind="checker", frequency=10.0)
+    assert texture_shape(checker, extent=(2.0, 1.0)) == (80, 160)  # 8 px per cycle
+    # noise: 20/3 px per cycle (4 per period of 5/3 the frequency), sides rounded up to 5-smooth
+    noise = TextureSpec(frequency=10.0)
+    assert texture_shape(noise, extent=(2.0, 1.0)) == (72, 135)  # 66.7 -> 72, 133.3 -> 135
+    assert make_texture(noise, extent=(2.0, 1.0)).shape == (72, 135, 3)
+    assert make_texture(checker, extent=(2.0, 1.0), pixels_per_metre=20.0).shape == (20, 40, 3)
+    assert make_texture(noise, extent=(2.0, 1.0), pixels_per_metre=25.5).shape == (27, 54, 3)
+    assert texture_shape(checker, extent=(1.6, 0.8)) == (65, 129)  # never a power of two
+    big = texture_shape(TextureSpec(kind="stripes", frequency=1000.0), extent=(3.0, 1.0))
+    assert big == (683, MAX_TEXTURE_SIDE - 1)  # capped (and not 2048), aspect kept
+    assert texture_shape(TextureSpec(frequency=1000.0), extent=(3.0, 1.0)) == (720, 2025)
+    assert texture_shape(checker, extent=(1e-6, 1e-6)) == (3, 3)
+    assert texture_shape(TextureSpec(kind="constant"), extent=(4.0, 1.0)) == (3, 6)
 
 
 @pytest.mark.parametrize(("kwargs", "pattern"), [
@@ -123,49 +136,80 @@ def test_bad_arguments(kwargs: dict, pattern: str) -> None:
 def test_band_limited_noise_is_normalised_and_periodic() -> None:
     noise = band_limited_noise((48, 64), frequency=6.0, pixel_size=(1 / 32, 1 / 32),
                                rng=np.random.default_rng(1))
-    assert abs(noise.mean()) < 1e-12 and noise.std() == pytest.approx(1.0)
+    assert noise.dtype == np.float32
+    assert abs(float(noise.mean(dtype=np.float64))) < 1e-6
+    assert float(noise.std(dtype=np.float64)) == pytest.approx(1.0, rel=1e-5)
     # periodic: the wrap-around step is no larger than a typical interior step
     interior = np.abs(np.diff(noise, axis=1)).max()
     assert np.abs(noise[:, 0] - noise[:, -1]).max() <= interior
+
+
+def test_band_limited_noise_has_no_power_outside_its_band() -> None:
+    frequency, pixel = 6.0, 1 / 40  # 6.7 px per period; band up to 10 cycles, Nyquist 20
+    noise = band_limited_noise((60, 80), frequency=frequency, pixel_size=(pixel, pixel),
+                               rng=np.random.default_rng(4)).astype(np.float64)
+    power = np.abs(np.fft.fft2(noise)) ** 2
+    radius = np.hypot(np.fft.fftfreq(60, d=pixel)[:, None], np.fft.fftfreq(80, d=pixel)[None, :])
+    outside = np.abs(radius - frequency) > NOISE_BAND * frequency / 3 + 1e-9
+    assert outside.any() and (~outside).sum() > 50
+    assert power[outside].sum() <= 1e-9 * power.sum()
+    # the band's centre carries more power per bin than its flanks
+    centre = np.abs(radius - frequency) <= frequency / 6
+    flank = (np.abs(radius - frequency) > frequency / 2) & ~outside
+    assert power[centre].mean() > 3 * power[flank].mean()
+
+
+def test_band_limited_noise_is_zero_when_the_band_is_beyond_nyquist() -> None:
+    noise = band_limited_noise((8, 8), frequency=100.0, pixel_size=(0.1, 0.1),
+                               rng=np.random.default_rng(0))
+    assert noise.dtype == np.float32 and not noise.any()
 
 
 # ---------------------------------------------------------------------------- reference formulas
 def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.ndarray:
     """``make_texture`` written as its docstring's formulas, one temporary per step.
 
-    ``make_texture`` evaluates the same expressions in place (to save time and memory); the
-    bytes must not change.
+    ``make_texture`` evaluates the same expressions in place and draws random coefficients only
+    inside the noise band (to save time and memory); the bytes must not change.
     """
     h, w = texture_shape(spec, extent=extent)
     du, dv = extent[0] / w, extent[1] / h
     rng = np.random.default_rng(spec.seed)
+    f32 = np.float32
     if spec.kind == "constant" or spec.contrast == 0.0:
-        pattern = np.zeros((h, w))
+        pattern = np.zeros((h, w), dtype=f32)
     elif spec.kind == "noise":
-        white = rng.standard_normal((h, w))
         fu, fv = np.fft.rfftfreq(w, d=du), np.fft.fftfreq(h, d=dv)
         radius = np.hypot(fv[:, None], fu[None, :])
-        gain = np.exp(-0.5 * ((radius - spec.frequency) / (spec.frequency / 3.0)) ** 2)
-        gain[0, 0] = 0.0
-        noise = np.fft.irfft2(np.fft.rfft2(white) * gain, s=(h, w))
-        noise = (noise - noise.mean()) / noise.std()
-        pattern = np.clip(noise / 2.5, -1.0, 1.0)
+        sigma = spec.frequency / 3.0
+        band = np.abs(radius - spec.frequency) <= NOISE_BAND * sigma
+        band[0, 0] = False
+        gain = np.exp(-0.5 * ((radius - spec.frequency) / sigma) ** 2).astype(f32)
+        re, im = rng.standard_normal((2, int(band.sum())), dtype=f32)
+        spectrum = np.zeros(band.shape, dtype=np.complex64)
+        spectrum[band] = re * gain[band] + 1j * (im * gain[band])
+        noise = np.fft.irfft2(spectrum, s=(h, w))
+        noise = (noise - noise.mean(dtype=np.float64)).astype(f32)
+        std = np.sqrt(np.mean(noise**2, dtype=np.float64))
+        noise = noise * f32(1.0 / std) if std > 0 else noise  # 0: no frequency of the band fits
+        pattern = np.clip(noise * f32(1 / 2.5), -1.0, 1.0)
     else:
         u, v = (np.arange(w) + 0.5) * du, (np.arange(h) + 0.5) * dv
         theta = np.radians(spec.angle)
         along = np.cos(theta) * u[None, :] + np.sin(theta) * v[:, None]
         across = -np.sin(theta) * u[None, :] + np.cos(theta) * v[:, None]
         phase_a, phase_b = rng.uniform(0.0, 2 * np.pi, size=2)
-        gain = max(1.0, 1.0 / (spec.frequency * max(du, dv)) / np.pi)
+        gain = f32(max(1.0, 1.0 / (spec.frequency * max(du, dv)) / np.pi))
 
-        def square(phase: np.ndarray) -> np.ndarray:
-            return np.clip(gain * np.sin(phase), -1.0, 1.0)
+        def square(phase: np.ndarray) -> np.ndarray:  # phase in float64, the rest in float32
+            return np.clip(gain * np.sin(phase.astype(f32)), -1.0, 1.0)
 
         pattern = square(2 * np.pi * spec.frequency * along + phase_a)
         if spec.kind == "checker":
             pattern = pattern * square(2 * np.pi * spec.frequency * across + phase_b)
-    grey = np.clip(spec.mean + spec.contrast * 0.5 * pattern, 0.0, 1.0)
-    return np.stack([np.rint(grey * (255.0 * t)) for t in spec.color], -1).astype(np.uint8)
+    grey = np.clip(f32(spec.mean) + f32(spec.contrast * 0.5) * pattern, 0.0, 1.0)
+    assert grey.dtype == f32
+    return np.stack([np.rint(grey * f32(255.0 * t)) for t in spec.color], -1).astype(np.uint8)
 
 
 @pytest.mark.parametrize("spec", [
@@ -178,6 +222,15 @@ def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.n
     TextureSpec(kind="constant", mean=0.42, color=(0.3, 1.0, 0.3)),
 ])
 def test_make_texture_bytes_equal_the_reference_formulas(spec: TextureSpec) -> None:
-    extent = (1.7, 1.1)  # odd sizes: 8 px per cycle gives e.g. 510 x 330 at 37.5 cycles/m
+    extent = (1.7, 1.1)  # e.g. 432 x 256 at 37.5 cycles/m (noise), 95 x 62 checker at 7
     np.testing.assert_array_equal(make_texture(spec, extent=extent),
                                   reference_texture(spec, extent=extent))
+
+
+def test_texture_side_examples() -> None:
+    from scenes.textures import _side
+
+    noise = [_side(n, 2048, smooth=True) for n in (1, 7, 11, 97, 1000, 1001, 2048)]
+    assert noise == [3, 9, 12, 100, 1000, 1080, 2025]  # 5-smooth, powers of two skipped
+    assert [_side(n, 2048, smooth=False) for n in (2, 5, 128, 2048, 3000)] == [3, 5, 129, 2047,
+                                                                             2047]

@@ -17,7 +17,7 @@ from scenes.strategies import texture_specs
 _small = texture_specs().map(lambda t: TextureSpec(kind=t.kind, frequency=8.0, contrast=t.contrast,
                                                    mean=t.mean, color=t.color, seed=t.seed,
                                                    angle=t.angle))
-_extent = st.tuples(st.floats(0.1, 1.0), st.floats(0.1, 1.0))
+_extent = st.tuples(st.floats(0.1, 0.95), st.floats(0.1, 0.95))  # <= 61 px at 64 px/m
 
 
 @functools.cache
@@ -64,3 +64,26 @@ def test_texture_bytes_equal_the_reference_formulas(spec: TextureSpec, extent) -
     reference_texture = _sibling("test_textures.py").reference_texture
     np.testing.assert_array_equal(make_texture(spec, extent=extent),
                                   reference_texture(spec, extent=extent))
+
+
+def _is_5_smooth(n: int) -> bool:
+    for p in (2, 3, 5):
+        while n % p == 0:
+            n //= p
+    return n == 1
+
+
+@given(st.integers(1, 5000), st.integers(3, 5000), st.booleans())
+def test_texture_sides_are_the_next_allowed_length(n: int, max_side: int, smooth: bool) -> None:
+    """Hand-picked examples: ``test_textures.py::test_texture_side_examples``."""
+    from scenes.textures import _side
+
+    def allowed(k: int) -> bool:
+        return 3 <= k <= max_side and k & (k - 1) != 0 and (not smooth or _is_5_smooth(k))
+
+    m = _side(n, max_side, smooth=smooth)
+    assert allowed(m)
+    if any(allowed(k) for k in range(max(n, 3), max_side + 1)):  # the next one up
+        assert m >= n and not any(allowed(k) for k in range(max(n, 3), m))
+    else:  # else the largest one below
+        assert not any(allowed(k) for k in range(m + 1, max_side + 1))
