@@ -14,13 +14,37 @@ Three measurements, all returning table rows (print them with :func:`synth.bench
 
 from __future__ import annotations
 
+import os
 import resource
 import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 __all__ = ["bench_dataset", "profile_dataset", "check_edge_density"]
+
+
+class _Stamped:
+    """A dataset task that returns the worker's pid and CPU time (all its threads) when done."""
+
+    def __init__(self, task: Any) -> None:
+        self.task = task
+        self.width, self.height, self.backend = task.width, task.height, task.backend
+
+    def __call__(self, index: int, renderer: Any) -> dict:
+        self.task(index, renderer)
+        return {"pid": os.getpid(), "cpu": time.process_time()}
+
+
+def _steady_cpu_per_pair(stamps: Sequence[dict]) -> float:
+    """CPU seconds per pair between each worker's first and last completion (summed)."""
+    by_pid: dict[int, list[float]] = {}
+    for s in stamps:
+        by_pid.setdefault(s["pid"], []).append(s["cpu"])
+    cpu = sum(max(v) - min(v) for v in by_pid.values())
+    pairs = sum(len(v) - 1 for v in by_pid.values())
+    return cpu / pairs if pairs else float("nan")
 
 
 def _cpu_seconds() -> float:
@@ -58,7 +82,10 @@ def bench_dataset(
         included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
         without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
         ``pairs_per_cpu_s`` (pairs per CPU second of this process and its workers, all
-        threads: robust to other load on the machine) and ``efficiency`` (steady rate over
+        threads: robust to other load on the machine), ``steady_cpu_ms_per_pair`` (CPU time
+        of the workers, all threads, per pair at steady state: what the run costs without
+        start-up, whatever else loads the machine; ``1000 * cores / steady_cpu_ms_per_pair``
+        bounds the steady rate of an idle machine) and ``efficiency`` (steady rate over
         ``workers / workers[0]`` times the first one's).
     """
     from synth.config import load_config
@@ -71,12 +98,13 @@ def bench_dataset(
         base_rate = base_steady = None
         for w in workers:
             with tempfile.TemporaryDirectory() as tmp:
-                task = _SampleTask(cfg, Path(tmp), "middlebury", backend)
+                task = _Stamped(_SampleTask(cfg, Path(tmp), "middlebury", backend))
                 cpu0 = _cpu_seconds()
                 t0 = time.perf_counter()
-                done = []
-                for _ in run_tasks(task, range(count), workers=w):
+                done, stamps = [], []
+                for _, stamp in run_tasks(task, range(count), workers=w):
                     done.append(time.perf_counter())
+                    stamps.append(stamp)
                 seconds = time.perf_counter() - t0
                 cpu = _cpu_seconds() - cpu0
             rate = count / seconds
@@ -89,6 +117,7 @@ def bench_dataset(
                          "pairs_per_s": rate, "steady_pairs_per_s": steady,
                          "startup_s": seconds - count / steady,
                          "pairs_per_cpu_s": count / cpu,
+                         "steady_cpu_ms_per_pair": 1e3 * _steady_cpu_per_pair(stamps),
                          "efficiency": steady / base_steady / scale})
     return rows
 
@@ -104,7 +133,10 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     Returns
     -------
     dict
-        ``config``, ``size``, ``pairs`` and one ``<stage>_ms`` entry per stage.
+        ``config``, ``size``, ``pairs``, one ``<stage>_ms`` entry per stage (wall time) and
+        ``total_ms``, and the same in CPU time of the process, all threads (``<stage>_cpu_ms``,
+        ``total_cpu_ms``: robust to other load on the machine; llvmpipe renders with a thread
+        per core, so ``render_cpu_ms`` can exceed ``render_ms``).
     """
     from scenes import build_meshes
     from synth.config import load_config
@@ -114,21 +146,25 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
 
     cfg = load_config(config)
     timings: dict[str, float] = {}
-    texture = 0.0
+    texture = texture_cpu = 0.0
     with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
         _produce(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
         for i in range(count):
             _produce(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury", timings=timings)
-            t0 = time.perf_counter()
-            build_meshes(draw_sample(cfg, i).scene)
+            scene = draw_sample(cfg, i).scene
+            t0, c0 = time.perf_counter(), time.process_time()
+            build_meshes(scene)
             texture += time.perf_counter() - t0
+            texture_cpu += time.process_time() - c0
     row: dict = {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
                  "pairs": count}
-    for stage in ("draw", "search", "render", "photometric", "stats", "write"):
-        row[f"{stage}_ms"] = 1e3 * timings.get(stage, 0.0) / count
-    row["texture_ms"] = 1e3 * texture / count
-    row["total_ms"] = sum(v for k, v in row.items() if k.endswith("_ms") and k != "texture_ms")
+    stages = ("draw", "search", "render", "photometric", "stats", "write")
+    for suffix, extra in (("", texture), ("_cpu", texture_cpu)):
+        for stage in stages:
+            row[f"{stage}{suffix}_ms"] = 1e3 * timings.get(stage + suffix, 0.0) / count
+        row[f"texture{suffix}_ms"] = 1e3 * extra / count
+        row[f"total{suffix}_ms"] = sum(row[f"{stage}{suffix}_ms"] for stage in stages)
     return row
 
 

@@ -9,8 +9,10 @@ order sort). Engines:
   :class:`concurrent.futures.ProcessPoolExecutor` with the ``spawn`` start method (never
   ``fork``: a forked GL context is unusable), each process opening one :class:`Renderer` in its
   initializer and reusing it. With more workers than cores / 2, each worker's llvmpipe gets
-  ``LP_NUM_THREADS = cores // workers`` threads (unless the variable is set), which avoids
-  oversubscription and does not change the images.
+  ``LP_NUM_THREADS = cores // workers`` threads (unless the variable is set) and OpenCV as
+  many, which avoids oversubscription and does not change the images. Worker processes (and
+  Ray actors) also tune glibc's ``malloc`` to reuse freed memory (see :func:`_tune_malloc`):
+  ~15 % less CPU per 640 x 480 pair.
 - ``"ray"``: ``workers`` Ray actors (one renderer each), on the cluster at ``address`` or on a
   local Ray started with ``num_cpus=workers`` (and shut down after). Needs ``pip install ray``.
 
@@ -19,8 +21,10 @@ The first failing task stops the run: pending tasks are cancelled and its except
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import sys
 from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any, Protocol
@@ -49,6 +53,32 @@ def ray_available() -> bool:
     return True
 
 
+# --------------------------------------------------------------------------- worker set-up
+_M_TRIM_THRESHOLD, _M_TOP_PAD, _M_MMAP_THRESHOLD = -1, -2, -3  # glibc's mallopt parameters
+
+
+def _tune_malloc() -> None:
+    """Make glibc keep freed memory in this worker's heap instead of unmapping it.
+
+    A 640 x 480 sample allocates and frees ~100 MB of multi-megabyte numpy temporaries. With
+    glibc's defaults most come from fresh ``mmap`` pages that fault in one by one: ~5000 page
+    faults and 12-20 ms of kernel time per pair were measured here, about 15 % of its CPU cost
+    (the tuned worker: ~250 faults). Arrays up to 32 MB then come from the heap, which keeps up
+    to 512 MB of free memory. Worker processes only (they are ours; a caller's process is left
+    alone); a no-op off glibc.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, AttributeError):  # pragma: no cover - not glibc
+        return
+    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+    for param, value in ((_M_MMAP_THRESHOLD, 32 << 20), (_M_TRIM_THRESHOLD, 512 << 20),
+                         (_M_TOP_PAD, 64 << 20)):
+        mallopt(param, value)
+
+
 # --------------------------------------------------------------------------- local engine
 _WORKER: dict[str, Any] = {}
 
@@ -58,13 +88,18 @@ def _threads_per_worker(workers: int) -> int | None:
     return max(1, cores // workers) if workers > 1 else None
 
 
-def _init_worker(task: Task, lp_threads: int | None) -> None:
+def _init_worker(task: Task, lp_threads: int | None, backend: str) -> None:
     if lp_threads is not None:
         os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
+        import cv2  # its thread pool too: workers already share the cores
+
+        cv2.setNumThreads(lp_threads)
+    _tune_malloc()
     from synth.render import Renderer
 
     _WORKER["task"] = task
-    _WORKER["renderer"] = Renderer(task.width, task.height, backend=task.backend)
+    # the parent resolved the backend on this machine: no second probe per worker
+    _WORKER["renderer"] = Renderer(task.width, task.height, backend=backend, probe=False)
 
 
 def _run_in_worker(index: int) -> tuple[int, dict]:
@@ -79,9 +114,12 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
             for index in indices:
                 yield index, task(index, renderer)
         return
+    from synth.render import resolve_backend
+
+    backend = resolve_backend(task.backend)  # probes in a subprocess; OpenGL stays unimported
     ctx = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
-                               initargs=(task, _threads_per_worker(workers)))
+                               initargs=(task, _threads_per_worker(workers), backend))
     try:
         pending = {pool.submit(_run_in_worker, i) for i in indices}
         while pending:
@@ -99,6 +137,7 @@ class _RayWorker:
     def __init__(self, task: Task) -> None:
         from synth.render import Renderer
 
+        _tune_malloc()
         self.task = task
         self.renderer = Renderer(task.width, task.height, backend=task.backend)
 

@@ -5,6 +5,7 @@ This is the library function behind ``stereoforge render`` (and the demo); the C
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Mapping
@@ -12,13 +13,13 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from scenes import SceneSpec, get_preset, load_scene, scene_to_dict
 from synth.io._atomic import atomic_write_bytes
 from synth.io.kitti import write_kitti
 from synth.io.middlebury import write_middlebury
+from synth.io.png import encode_png
 from synth.pair import StereoPair
 from synth.preview import preview_image
 from synth.rig import StereoRig
@@ -93,14 +94,20 @@ def calib_for(pair: StereoPair) -> dict:
     ``vmin``/``vmax`` bound the finite left and right disparities (floor/ceil); ``ndisp`` is
     ``vmax + 1`` rounded up to a multiple of 16, as Middlebury's conservative search bound.
     """
-    finite = [d[np.isfinite(d)] for d in (pair.disp_left, pair.disp_right)]
-    values = np.concatenate(finite) if any(f.size for f in finite) else np.zeros(1)
-    vmin = int(math.floor(float(values.min())))
-    vmax = int(math.ceil(float(values.max())))
+    lo, hi = math.inf, -math.inf
+    for d in (pair.disp_left, pair.disp_right):
+        finite = np.isfinite(d)
+        lo = min(lo, float(np.min(d, where=finite, initial=np.inf)))
+        hi = max(hi, float(np.max(d, where=finite, initial=-np.inf)))
+    if lo > hi:  # no finite disparity at all
+        lo = hi = 0.0
+    vmin = int(math.floor(lo))
+    vmax = int(math.ceil(hi))
     ndisp = int(16 * math.ceil((vmax + 1) / 16))
     return pair.rig.middlebury_calib(ndisp=ndisp, vmin=vmin, vmax=vmax)
 
 
+@functools.cache
 def _version() -> str:
     try:
         return metadata.version("stereoforge")
@@ -193,9 +200,6 @@ def write_pair(
     written.append(scene_json)
     if preview:
         img = preview_image(pair.left, pair.right, pair.disp_left, pair.mask_left)
-        ok, buf = cv2.imencode(".png", img[..., ::-1], [cv2.IMWRITE_PNG_COMPRESSION, 1])
-        if not ok:
-            raise RuntimeError("OpenCV could not encode preview.png")
-        atomic_write_bytes(out / "preview.png", buf.tobytes(), fsync=fsync)
+        atomic_write_bytes(out / "preview.png", encode_png(img), fsync=fsync)
         written.append(out / "preview.png")
     return written

@@ -193,8 +193,8 @@ def render_pair(
     --------
     >>> import scenes
     >>> rig = StereoRig.default(64, 48)
-    >>> pair = render_pair(scenes.get_preset("fronto_plane"), rig)  # doctest: +SKIP
-    >>> float(pair.disp_left[24, 32])  # 60 px * 0.1 m / 2 m  # doctest: +SKIP
+    >>> pair = render_pair(scenes.get_preset("fronto_plane"), rig)
+    >>> float(pair.disp_left[24, 32])  # 60 px * 0.1 m / 2 m
     3.0
     """
     if not isinstance(rig, StereoRig):

@@ -7,14 +7,22 @@ The models act on the images only (ground truth is unchanged) and in a fixed ord
 3. right image only: ``x * gain + bias`` (the left/right mismatch);
 4. independent Gaussian noise of standard deviation ``noise_sigma`` grey levels on every
    pixel and channel of each image (left drawn first, then right);
-5. rounding and clipping to uint8;
+5. rounding (half to even) and clipping to uint8;
 6. a JPEG round trip at ``jpeg_quality`` (1..100; 0 = off) of each image.
 
 All randomness comes from the ``rng`` passed in, so a sample is reproducible from its seed.
+
+The noise is drawn by inverse-CDF lookup (:func:`gaussian_noise`): every value takes 16 raw
+bits of ``rng``'s bit generator and reads one of 65536 equiprobable quantiles of the standard
+normal (rescaled to unit variance). Its tails stop at +-4.3 sigma, where a true Gaussian
+leaves 1.5e-5 of its mass; after rounding to grey levels the difference is invisible. It costs
+~1.5 ms per 640 x 480 RGB image instead of ~10 ms for ``Generator.standard_normal``, and, since
+only raw bit-generator output is used, the bytes do not change with the numpy version.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 from typing import Any, Mapping, NamedTuple
@@ -22,7 +30,10 @@ from typing import Any, Mapping, NamedTuple
 import cv2
 import numpy as np
 
-__all__ = ["PhotometricParams", "PhotometricPair", "apply_photometric"]
+__all__ = ["PhotometricParams", "PhotometricPair", "apply_photometric", "gaussian_noise"]
+
+#: Random bits per noise value: the quantile table has ``2**NOISE_BITS`` entries.
+_NOISE_BITS = 16
 
 
 @dataclass(frozen=True)
@@ -107,6 +118,59 @@ class PhotometricPair(NamedTuple):
     right: np.ndarray
 
 
+@functools.cache
+def _normal_quantiles() -> np.ndarray:
+    """The ``2**16`` mid-quantiles ``Phi^-1((k + 1/2) / 2**16)``, scaled to unit variance."""
+    from scipy.special import ndtri
+
+    n = 1 << _NOISE_BITS
+    q = ndtri((np.arange(n, dtype=np.float64) + 0.5) / n)
+    q /= math.sqrt(float(np.mean(q * q)))
+    q.setflags(write=False)
+    return q
+
+
+def gaussian_noise(shape: tuple[int, ...], sigma: float, *,
+                   rng: np.random.Generator | int | None) -> np.ndarray:
+    """Independent zero-mean Gaussian values of standard deviation ``sigma`` (float32).
+
+    Inverse-CDF sampling at 16-bit resolution: each value reads one of the 65536 equiprobable
+    quantiles of the standard normal (mid-points, rescaled to unit variance; the largest is
+    4.3), indexed by 16 raw bits of ``rng.bit_generator`` (little-endian 16-bit words of its
+    64-bit outputs, in order). About 6x faster than ``Generator.standard_normal``, and the
+    values depend only on the bit generator's stream, not on the numpy version.
+
+    Parameters
+    ----------
+    shape : tuple of int
+    sigma : float
+        Standard deviation, ``>= 0``.
+    rng : numpy.random.Generator, int or None
+        ``np.random.default_rng(rng)``; advanced by ``ceil(size / 4)`` 64-bit outputs.
+
+    Returns
+    -------
+    ndarray of float32, of the given shape
+
+    Examples
+    --------
+    >>> x = gaussian_noise((200, 200), 2.0, rng=0)
+    >>> x.dtype.name, round(float(x.std()), 1), abs(float(x.mean())) < 0.05
+    ('float32', 2.0, True)
+    >>> bool((gaussian_noise((3,), 1.0, rng=5) == gaussian_noise((3,), 1.0, rng=5)).all())
+    True
+    """
+    if isinstance(sigma, bool) or not isinstance(sigma, (int, float, np.integer, np.floating)) \
+            or not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma must be a finite number >= 0, got {sigma!r}")
+    rng = np.random.default_rng(rng)
+    size = math.prod(shape)
+    words = rng.bit_generator.random_raw((size + 3) // 4)
+    index = words.astype("<u8", copy=False).view("<u2")[:size]
+    table = (_normal_quantiles() * float(sigma)).astype(np.float32)
+    return table.take(index).reshape(shape)
+
+
 def _blur(img: np.ndarray, sigma: float) -> np.ndarray:
     k = 2 * int(math.ceil(3.0 * sigma)) + 1
     return cv2.GaussianBlur(img, (k, k), sigmaX=sigma, sigmaY=sigma,
@@ -123,6 +187,29 @@ def _jpeg(img: np.ndarray, quality: int) -> np.ndarray:
     return np.ascontiguousarray(out[..., ::-1] if colour else out)
 
 
+def _gamma(img: np.ndarray, gamma: float) -> np.ndarray:
+    """``255 * (img / 255) ** gamma`` in place on a float32 array; returns it."""
+    np.multiply(img, np.float32(1.0 / 255.0), out=img)
+    np.power(img, np.float32(gamma), out=img)
+    np.multiply(img, np.float32(255.0), out=img)
+    return img
+
+
+def _to_uint8(img: np.ndarray, gain: float, bias: float, noise: np.ndarray | None) -> np.ndarray:
+    """``round(img * gain + bias + noise)`` clipped to uint8, in as few passes as possible."""
+    if noise is not None:  # one fused pass (float32 arithmetic, saturating round-half-even)
+        return cv2.addWeighted(img, gain, noise, 1.0, bias, dtype=cv2.CV_8U)
+    if img.dtype == np.uint8 and gain == 1.0 and bias == 0.0:
+        return img.copy()
+    out = img.astype(np.float32)  # a copy: the caller's array is never modified
+    if gain != 1.0 or bias != 0.0:
+        np.multiply(out, np.float32(gain), out=out)
+        np.add(out, np.float32(bias), out=out)
+    np.rint(out, out=out)
+    np.clip(out, 0, 255, out=out)
+    return out.astype(np.uint8)
+
+
 def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricParams, *,
                       rng: np.random.Generator | int | None) -> PhotometricPair:
     """Apply the photometric models to a pair (see the module docstring for the order).
@@ -133,7 +220,7 @@ def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricPa
         Rendered images of one shape.
     params : PhotometricParams
     rng : numpy.random.Generator, int or None
-        Source of the noise (``np.random.default_rng(rng)``).
+        Source of the noise (``np.random.default_rng(rng)``; see :func:`gaussian_noise`).
 
     Returns
     -------
@@ -154,7 +241,8 @@ def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricPa
     if not isinstance(params, PhotometricParams):
         raise TypeError(f"params must be a PhotometricParams, got {type(params).__name__}")
     for name, img in (("left", left), ("right", right)):
-        if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.ndim not in (2, 3):
+        if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.ndim not in (2, 3) \
+                or (img.ndim == 3 and img.shape[2] != 3):
             got = f"{img.dtype} {img.shape}" if isinstance(img, np.ndarray) else type(img).__name__
             raise TypeError(f"{name} must be an (H, W[, 3]) uint8 image, got {got}")
     if left.shape != right.shape:
@@ -163,27 +251,21 @@ def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricPa
     if params.is_identity():
         return PhotometricPair(left, right)
     rng = np.random.default_rng(rng)
-    images = [left.astype(np.float32), right.astype(np.float32)]
+    images = [left, right]  # uint8 until a model needs floats
     if params.blur_sigma > 0:
-        images = [_blur(img, params.blur_sigma) for img in images]
+        images = [_blur(img.astype(np.float32), params.blur_sigma) for img in images]
     if params.gamma != 1.0:
-        for img in images:
-            np.multiply(img, np.float32(1.0 / 255.0), out=img)
-            np.power(img, np.float32(params.gamma), out=img)
-            np.multiply(img, np.float32(255.0), out=img)
-    if params.gain != 1.0 or params.bias != 0.0:
-        np.multiply(images[1], np.float32(params.gain), out=images[1])
-        np.add(images[1], np.float32(params.bias), out=images[1])
+        if params.blur_sigma > 0:
+            for img in images:  # float32 arrays of our own: in place
+                _gamma(img, params.gamma)
+        else:  # uint8: the same float32 formula, evaluated once per grey level
+            lut = _gamma(np.arange(256, dtype=np.float32), params.gamma)
+            images = [cv2.LUT(img, lut) for img in images]
+    noise: list[np.ndarray | None] = [None, None]
     if params.noise_sigma > 0:
-        for img in images:
-            noise = rng.standard_normal(img.shape, dtype=np.float32)
-            noise *= np.float32(params.noise_sigma)
-            img += noise
-    out = []
-    for img in images:
-        np.rint(img, out=img)
-        np.clip(img, 0, 255, out=img)
-        out.append(img.astype(np.uint8))
+        noise = [gaussian_noise(left.shape, params.noise_sigma, rng=rng) for _ in range(2)]
+    out = [_to_uint8(images[0], 1.0, 0.0, noise[0]),
+           _to_uint8(images[1], params.gain, params.bias, noise[1])]
     if params.jpeg_quality > 0:
         out = [_jpeg(img, params.jpeg_quality) for img in out]
     return PhotometricPair(out[0], out[1])

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
     from synth.rig import StereoRig
 
-__all__ = ["GLBackendError", "Renderer", "ViewRender", "BACKENDS"]
+__all__ = ["GLBackendError", "Renderer", "ViewRender", "BACKENDS", "resolve_backend"]
 
 #: Backends in the order ``backend="auto"`` tries them.
 BACKENDS = ("egl", "osmesa")
@@ -114,7 +114,31 @@ def _platform_in_use() -> str | None:
     return name.replace("platform", "") or name
 
 
-def _choose_backend(backend: str) -> str:
+def resolve_backend(backend: str = "auto") -> str:
+    """The GL backend a :class:`Renderer` would start here: ``"egl"`` or ``"osmesa"``.
+
+    Each candidate is probed once per process, in a subprocess (so a broken driver cannot take
+    this process down). A parent process can resolve once and hand the name to its workers,
+    which then open ``Renderer(..., backend=name, probe=False)`` without probing again.
+
+    Raises
+    ------
+    GLBackendError
+        If no requested backend starts.
+    """
+    _check_backend_name(backend)
+    return _choose_backend(backend)
+
+
+def _check_backend_name(backend: str) -> None:
+    if backend not in ("auto",) + BACKENDS:
+        raise ValueError(
+            f"backend must be one of 'auto', 'egl', 'osmesa', got {backend!r}; "
+            "use 'auto' to try EGL then OSMesa"
+        )
+
+
+def _choose_backend(backend: str, *, probe: bool = True) -> str:
     """Pick the backend to start in this process (probing before any OpenGL import)."""
     wanted = list(BACKENDS) if backend == "auto" else [backend]
     locked = _platform_in_use()
@@ -129,6 +153,8 @@ def _choose_backend(backend: str) -> str:
             "in a fresh process before anything imports OpenGL or pyrender (PyOpenGL reads "
             "PYOPENGL_PLATFORM once, at import)"
         )
+    if not probe and backend != "auto":
+        return backend
     failures = []
     for b in wanted:
         err = _probe(b)
@@ -629,6 +655,10 @@ class Renderer:
     backend : {"auto", "egl", "osmesa"}
         ``"auto"`` tries EGL, then OSMesa. PyOpenGL binds one platform per
         process at its first import, so all renderers of a process share it.
+    probe : bool
+        Probe the backend in a subprocess first (default). ``False`` skips the
+        probe for a named backend that :func:`resolve_backend` already found
+        working on this machine (worker processes of a pool).
 
     Raises
     ------
@@ -643,25 +673,22 @@ class Renderer:
     >>> quad = trimesh.Trimesh([[-1, -1, 2], [1, -1, 2], [1, 1, 2], [-1, 1, 2]],
     ...                        [[0, 1, 2], [0, 2, 3]], process=False)
     >>> rig = StereoRig.default(32, 24)
-    >>> with Renderer(32, 24) as r:  # doctest: +SKIP
+    >>> with Renderer(32, 24) as r:
     ...     view = r.render_view([quad], rig, eye="left")
-    >>> float(view.depth[12, 16])  # doctest: +SKIP
+    >>> float(view.depth[12, 16])
     2.0
     """
 
-    def __init__(self, width: int, height: int, *, backend: str = "auto") -> None:
+    def __init__(self, width: int, height: int, *, backend: str = "auto",
+                 probe: bool = True) -> None:
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive int, got {value!r}")
-        if backend not in ("auto",) + BACKENDS:
-            raise ValueError(
-                f"backend must be one of 'auto', 'egl', 'osmesa', got {backend!r}; "
-                "use 'auto' to try EGL then OSMesa"
-            )
+        _check_backend_name(backend)
         self.width, self.height = int(width), int(height)
         self._closed = True
         self._held: dict[int, tuple[Any, _GLScene]] = {}
-        self.backend = _choose_backend(backend)
+        self.backend = _choose_backend(backend, probe=probe)
         os.environ["PYOPENGL_PLATFORM"] = self.backend  # read once, by PyOpenGL's first import
         try:
             self._platform = self._make_platform()

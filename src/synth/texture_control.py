@@ -158,6 +158,10 @@ class EdgeSearch:
     converged : bool
         ``|edge_density - target| <= SEARCH_TOL``; False when the target is out of reach (below
         the density of the untextured geometry's edges or above the densest texture).
+    left : (H, W, 3) uint8 array
+        The rendered left view (a copy) of ``scene`` whose density is ``edge_density`` (read-only), so
+        that a caller rendering ``scene`` again can reuse the measurement when the images are
+        equal instead of running Canny again.
     """
 
     scene: SceneSpec
@@ -166,6 +170,7 @@ class EdgeSearch:
     target: float
     probes: int
     converged: bool
+    left: np.ndarray = dataclasses.field(repr=False, compare=False)
 
 
 def match_edge_density(
@@ -232,16 +237,17 @@ def match_edge_density(
     lo, hi = math.log(F_MIN_PX), math.log(F_MAX_PX)
     r_lo = r_hi = None
     x = min(max(math.log(target / _SLOPE), lo), hi)
-    best: tuple[float, float, float, SceneSpec] | None = None  # (error, log f, rho, scene)
+    best: tuple[float, float, float, SceneSpec, np.ndarray] | None = None  # error, log f, rho
     probes = 0
     while True:
         f = math.exp(x)
         probe_scene = retexture(scene, fx=rig.fx, frequency_px=f)
-        rho = edge_density(render_left(probe_scene))
+        image = render_left(probe_scene)
+        rho = edge_density(image)
         probes += 1
         err = abs(rho - target)
         if best is None or err < best[0]:
-            best = (err, x, rho, probe_scene)
+            best = (err, x, rho, probe_scene, np.array(image))  # own copy, kept
         if err <= tol or probes >= _MAX_PROBES:
             break
         if rho < target:
@@ -257,6 +263,7 @@ def match_edge_density(
         else:  # one side known: move by the log ratio (rho ~ f), at most to the middle
             nxt = x + math.log(target / max(rho, 1e-3))
         x = min(max(nxt, lo + 0.1 * width), hi - 0.1 * width)
-    err, x, rho, chosen = best
-    return EdgeSearch(scene=chosen, frequency_px=math.exp(x), edge_density=rho, target=float(target),
-                      probes=probes, converged=err <= tol)
+    err, x, rho, chosen, image = best
+    image.setflags(write=False)
+    return EdgeSearch(scene=chosen, frequency_px=math.exp(x), edge_density=rho,
+                      target=float(target), probes=probes, converged=err <= tol, left=image)

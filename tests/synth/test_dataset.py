@@ -151,6 +151,19 @@ def test_another_config_or_format_is_refused(config_file, tmp_path):
         run_dataset(cfg, out=out, fmt="kitti", progress=False)
 
 
+def test_a_dataset_of_another_sample_format_version_is_refused(tmp_path):
+    out = tmp_path / "ds"
+    out.mkdir()
+    cfg = loads_config(CONFIG)
+    (out / "dataset.json").write_text(json.dumps({"name": "tiny", "format": "middlebury",
+                                                  "config_hash": cfg.hash(),
+                                                  "format_version": 1}))
+    with pytest.raises(DatasetError, match=r"sample format version 1, written by another "
+                                           r"stereoforge version; this one writes version 2"):
+        run_dataset(cfg, out=out, progress=False)
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "dataset.json"]
+
+
 def test_a_foreign_directory_or_a_busy_one_is_refused(tmp_path):
     cfg = loads_config(CONFIG)
     foreign = tmp_path / "foreign"
@@ -289,3 +302,25 @@ def test_edge_density_config_reaches_its_targets(tmp_path, renderer):
         target = r["params"]["scene.edge_density"]
         assert abs(r["stats"]["edge_density"] - target) <= 0.02
         assert r["stats"]["edge_search_probes"] >= 1
+
+
+@pytest.mark.gl
+def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, monkeypatch):
+    import synth.dataset as dataset
+    from synth.texture_control import edge_density
+
+    text = CONFIG.replace("count = 12", "count = 2").replace("width = 48", "width = 64").replace(
+        "height = 32", "height = 48").replace(
+        'base = {choice = ["fronto_plane", "boxes", "flying"]}', 'base = "fronto_plane"').replace(
+        'texture = {choice = ["preset", "noise"]}', 'texture = "noise"\n'
+        "edge_density = {uniform = [0.1, 0.2]}")
+    cfg = loads_config(text)
+    calls = []
+    monkeypatch.setattr(dataset, "edge_density", lambda img: calls.append(1) or edge_density(img))
+    record = dataset._produce(cfg, 0, renderer, tmp_path / "s", "middlebury")
+    assert calls == []  # the search rendered this left view already: no second Canny
+    assert (tmp_path / "s" / "sample.json").is_file()
+    plain = loads_config(text.replace("edge_density = {uniform = [0.1, 0.2]}", ""))
+    dataset._produce(plain, 0, renderer, tmp_path / "p", "middlebury")
+    assert calls == [1]  # without a search the statistic is measured
+    assert record["stats"]["edge_search_probes"] >= 1

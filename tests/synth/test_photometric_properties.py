@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from synth.photometric import PhotometricParams, apply_photometric
+from synth.photometric import PhotometricParams, apply_photometric, gaussian_noise
 
 images = arrays(np.uint8, st.tuples(st.integers(2, 24), st.integers(2, 24), st.just(3)))
 params = st.builds(
@@ -49,3 +49,27 @@ def test_gain_bias_example():
     img = np.array([[[0, 100, 250]]], np.uint8)
     out = apply_photometric(img, img, PhotometricParams(gain=1.5, bias=-10.0), rng=0)
     assert out.right.tolist() == [[[0, 140, 255]]]
+
+
+@given(st.floats(0.01, 64.0), st.integers(0, 2**32), st.integers(1, 300))
+def test_gaussian_noise_scales_linearly_with_sigma(sigma, seed, n):
+    unit = gaussian_noise((n,), 1.0, rng=seed).astype(np.float64)
+    scaled = gaussian_noise((n,), sigma, rng=seed).astype(np.float64)
+    np.testing.assert_allclose(scaled, sigma * unit, rtol=1e-6, atol=0)
+
+
+def test_gaussian_noise_scales_linearly_example():
+    np.testing.assert_allclose(gaussian_noise((4,), 8.0, rng=1),
+                               8.0 * gaussian_noise((4,), 1.0, rng=1), rtol=1e-6)
+
+
+@given(st.floats(0.5, 32.0), st.integers(0, 2**32))
+def test_gaussian_noise_has_the_requested_sigma(sigma, seed):
+    x = gaussian_noise((64, 64), sigma, rng=seed).astype(np.float64)
+    assert abs(x.std() / sigma - 1.0) < 0.05  # ~4.5 standard errors for 4096 values
+    assert abs(x.mean()) < 0.07 * sigma
+
+
+def test_gaussian_noise_sigma_example():
+    x = gaussian_noise((64, 64), 3.0, rng=0).astype(np.float64)
+    assert 2.85 < x.std() < 3.15

@@ -228,3 +228,14 @@ def test_egl_and_osmesa_agree() -> None:
     assert results["egl"]["disp"] == results["osmesa"]["disp"]
     diff = np.abs(np.array(results["egl"]["left"]) - np.array(results["osmesa"]["left"]))
     assert diff.max() <= 1
+
+
+def test_resolve_backend_names_a_backend_and_skipping_the_probe_works(renderer: Renderer) -> None:
+    from synth.render import resolve_backend
+
+    name = resolve_backend("auto")
+    assert name == renderer.backend
+    with Renderer(16, 12, backend=name, probe=False) as r:
+        assert r.backend == name
+    with pytest.raises(ValueError, match="backend must be one of"):
+        resolve_backend("vulkan")

@@ -64,6 +64,14 @@ def test_search_is_deterministic_and_hits_the_target_on_a_fake_renderer():
         a.frequency_px * RIG.fx / base.objects[0].pose.translation[2])
 
 
+def test_search_returns_the_image_it_measured():
+    base = scenes.get_preset("fronto_plane")
+    r = match_edge_density(base, RIG, 0.2, render_left=_stripes)
+    np.testing.assert_array_equal(r.left, _stripes(r.scene))
+    assert r.edge_density == edge_density(r.left)
+    assert not r.left.flags.writeable
+
+
 def test_search_reports_an_unreachable_target():
     def blank(scene):
         return np.zeros((48, 64, 3), np.uint8)

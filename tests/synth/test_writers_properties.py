@@ -70,3 +70,18 @@ def test_kitti_round_trip(tmp_path_factory, frame, index):
     expected = np.maximum(np.rint(disp[valid].astype(np.float64) * 256), 1) / 256
     np.testing.assert_array_equal(occ.disp_left[valid], expected.astype(np.float32))
     np.testing.assert_array_equal(noc.disp_left[mask == 255], occ.disp_left[mask == 255])
+
+
+@given(image=st.one_of(
+    hnp.arrays(np.uint8, st.tuples(st.integers(1, 24), st.integers(1, 24))),
+    hnp.arrays(np.uint8, st.tuples(st.integers(1, 24), st.integers(1, 24), st.just(3))),
+    hnp.arrays(np.uint16, st.tuples(st.integers(1, 16), st.integers(1, 16)))),
+    deflate=st.sampled_from(["zlib", "isal"]))
+def test_png_round_trips_through_opencv(image, deflate):
+    import cv2
+
+    from synth.io.png import encode_png
+
+    back = cv2.imdecode(np.frombuffer(encode_png(image, deflate=deflate), np.uint8),
+                        cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(back[..., ::-1] if back.ndim == 3 else back, image)

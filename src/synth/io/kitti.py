@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from matcher._validation import check_ground_truth, check_occlusion_mask
-from matcher.io import encode_png
 from synth.io._atomic import write_all_atomic
 from synth.io.middlebury import check_stereo_images
+from synth.io.png import encode_png
 
 __all__ = ["KITTI_MAX_DISPARITY", "encode_kitti_disparity", "write_kitti"]
 

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from matcher._validation import check_ground_truth, check_occlusion_mask
-from matcher.io import encode_pfm, encode_png, format_calib
+from matcher.io import encode_pfm, format_calib
 from synth.io._atomic import write_all_atomic
+from synth.io.png import encode_png
 
 __all__ = ["REQUIRED_CALIB_KEYS", "check_stereo_images", "write_middlebury"]
 
@@ -60,11 +61,12 @@ def _complete_calib(calib: Mapping[str, object], shape: tuple[int, int], disp: n
         if key in out and int(out[key]) != value:  # type: ignore[call-overload]
             raise ValueError(f"calib[{key!r}]: expected {value} (the image size), got {out[key]}")
         out[key] = value
-    finite = disp[np.isfinite(disp)]
-    if "vmin" not in out:
-        out["vmin"] = math.floor(float(finite.min())) if finite.size else 0
-    if "vmax" not in out:
-        out["vmax"] = math.ceil(float(finite.max())) if finite.size else 0
+    if "vmin" not in out or "vmax" not in out:
+        finite = disp[np.isfinite(disp)]
+        if "vmin" not in out:
+            out["vmin"] = math.floor(float(finite.min())) if finite.size else 0
+        if "vmax" not in out:
+            out["vmax"] = math.ceil(float(finite.max())) if finite.size else 0
     return out
 
 

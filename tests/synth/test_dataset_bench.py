@@ -1,0 +1,44 @@
+"""The dataset benchmark's bookkeeping (rates are measured, never asserted: no timed tests)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from synth.bench_dataset import _steady_cpu_per_pair, bench_dataset, profile_dataset
+
+TINY = """\
+name = "tiny"
+[rig]
+width = 32
+height = 24
+[scene]
+base = "fronto_plane"
+texture = "noise"
+[photometric]
+noise_sigma = 1.0
+"""
+
+
+def test_steady_cpu_counts_each_worker_from_its_first_completion():
+    stamps = [{"pid": 1, "cpu": 10.0}, {"pid": 2, "cpu": 5.0}, {"pid": 1, "cpu": 10.5},
+              {"pid": 2, "cpu": 5.2}, {"pid": 1, "cpu": 11.0}]
+    # worker 1: 1.0 s for 2 pairs, worker 2: 0.2 s for 1 pair
+    assert _steady_cpu_per_pair(stamps) == pytest.approx(1.2 / 3)
+    assert math.isnan(_steady_cpu_per_pair([{"pid": 1, "cpu": 3.0}]))
+
+
+@pytest.mark.gl
+def test_bench_and_profile_rows(tmp_path, renderer):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    (row,) = bench_dataset(configs=(str(path),), count=3, workers=(1,))
+    assert (row["config"], row["size"], row["workers"], row["pairs"]) == ("tiny", "32x24", 1, 3)
+    assert row["steady_cpu_ms_per_pair"] > 0 and row["efficiency"] == 1
+    prof = profile_dataset(str(path), count=2)
+    stages = ("draw", "search", "render", "photometric", "stats", "write")
+    for suffix in ("", "_cpu"):
+        assert prof[f"total{suffix}_ms"] == pytest.approx(
+            sum(prof[f"{s}{suffix}_ms"] for s in stages))
+    assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] >= 0

@@ -1,0 +1,105 @@
+"""Hand-picked examples for the fast PNG encoder of the dataset writers (``synth.io.png``).
+
+Property companion: ``test_png_round_trips_through_opencv`` in ``test_writers_properties.py``.
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+import zlib
+
+import cv2
+import numpy as np
+import pytest
+from PIL import Image
+
+from synth.io import png
+from synth.io.png import DEFLATE, encode_png
+
+DEFLATES = ["zlib", "isal"]
+
+
+def _chunks(data: bytes) -> list[tuple[bytes, bytes]]:
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    out, pos = [], 8
+    while pos < len(data):
+        (n,) = struct.unpack(">I", data[pos:pos + 4])
+        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        (crc,) = struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])
+        assert crc == zlib.crc32(kind + body)
+        out.append((kind, body))
+        pos += 12 + n
+    return out
+
+
+def _decode(data: bytes) -> np.ndarray:
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    return img[..., ::-1] if img.ndim == 3 else img
+
+
+@pytest.mark.parametrize("deflate", DEFLATES)
+def test_rgb_grey_and_16_bit_images_decode_to_the_same_pixels(deflate):
+    rng = np.random.default_rng(0)
+    images = [rng.integers(0, 256, (7, 5, 3), dtype=np.uint8),
+              rng.integers(0, 256, (4, 9), dtype=np.uint8),
+              rng.integers(0, 65536, (6, 3), dtype=np.uint16),
+              rng.integers(0, 65536, (2, 2, 3), dtype=np.uint16),
+              np.full((1, 1), 200, np.uint8)]
+    for img in images:
+        data = encode_png(img, deflate=deflate)
+        np.testing.assert_array_equal(_decode(data), img)
+        if not (img.ndim == 3 and img.dtype == np.uint16):  # Pillow reads 16-bit RGB as 8-bit
+            np.testing.assert_array_equal(np.asarray(Image.open(io.BytesIO(data))), img)
+
+
+def test_file_structure_and_up_filter():
+    img = np.array([[1, 2, 3], [4, 4, 250]], np.uint8)
+    chunks = _chunks(encode_png(img, deflate="zlib"))
+    assert [k for k, _ in chunks] == [b"IHDR", b"IDAT", b"IEND"]
+    assert chunks[0][1] == struct.pack(">IIBBBBB", 3, 2, 8, 0, 0, 0, 0)  # 3x2, 8-bit grey
+    raw = zlib.decompress(chunks[1][1])
+    # filter byte 2 ("Up") per row; row 0 as is, row 1 minus row 0 modulo 256
+    assert raw == bytes([2, 1, 2, 3, 2, 3, 2, 247])
+    head = _chunks(encode_png(np.zeros((1, 2, 3), np.uint16)))[0][1]
+    assert head == struct.pack(">IIBBBBB", 2, 1, 16, 2, 0, 0, 0)  # 16-bit RGB
+
+
+def test_sixteen_bit_values_are_big_endian():
+    img = np.array([[0x0102, 0xFFFE]], np.uint16)
+    raw = zlib.decompress(_chunks(encode_png(img))[1][1])
+    assert raw == bytes([2, 0x01, 0x02, 0xFF, 0xFE])
+
+
+def test_strided_input_gives_the_bytes_of_its_copy():
+    rng = np.random.default_rng(1)
+    img = rng.integers(0, 256, (10, 12, 3), dtype=np.uint8)
+    for view in (img[::-1], img[:, ::2], img[2:7, 3:9]):
+        assert encode_png(view) == encode_png(np.ascontiguousarray(view))
+
+
+def test_deflate_default_and_fallback(monkeypatch):
+    img = np.arange(48, dtype=np.uint8).reshape(4, 4, 3)
+    assert DEFLATE in ("isal", "zlib")
+    assert encode_png(img) == encode_png(img, deflate=DEFLATE)
+    monkeypatch.setattr(png, "_isal_zlib", None)  # isal missing: "isal" falls back to zlib
+    assert encode_png(img, deflate="isal") == encode_png(img, deflate="zlib")
+
+
+@pytest.mark.parametrize(
+    ("image", "error", "match"),
+    [
+        (np.zeros((2, 2), np.float32), TypeError, "uint8 or uint16"),
+        ([[1, 2]], TypeError, "got list"),
+        (np.zeros((2, 2, 4), np.uint8), ValueError, r"\(H, W\) or \(H, W, 3\)"),
+        (np.zeros((0, 2), np.uint8), ValueError, "non-empty"),
+    ],
+)
+def test_bad_images_are_refused(image, error, match):
+    with pytest.raises(error, match=match):
+        encode_png(image)
+
+
+def test_unknown_deflate_is_refused():
+    with pytest.raises(ValueError, match="deflate: expected 'isal', 'zlib' or None"):
+        encode_png(np.zeros((2, 2), np.uint8), deflate="zstd")
