@@ -231,9 +231,13 @@ def test_kitti_layout(config_file, tmp_path, renderer):
 
 # --------------------------------------------------------------------------- kill and resume
 _RUNNER = """
+import signal
 import sys
 from synth.dataset import run_dataset
 if __name__ == "__main__":
+    # a shell without job control starts background jobs with SIGINT ignored, and Python then
+    # installs no KeyboardInterrupt handler; restore it, as for a user pressing Ctrl-C
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     run_dataset(sys.argv[1], out=sys.argv[2], workers=int(sys.argv[3]), progress=False)
 """
 
