@@ -67,37 +67,45 @@ def bench_paper_methods(
     max_window: int = 21,
     cthw_windows: tuple[int, ...] = (9, 21),
     repeats: int = 3,
+    canny_impls: tuple[str, ...] = ("skimage", "opencv"),
 ) -> list[dict[str, object]]:
     """Time AWCT/AWSCT against CT/SCT at ``max_window`` and CTHW against CT at the same window.
+
+    AWCT/AWSCT are timed once per Canny implementation in ``canny_impls`` (see
+    :func:`matcher.edges.canny_edges`; ``"skimage"`` is the default of
+    :func:`matcher.adaptive.match_awct`).
 
     Returns
     -------
     list of dict
         One row per method: ``method``, ``window``, ``seconds`` (best of ``repeats``),
         ``median_seconds``, ``baseline`` (the method it is compared with), ``ratio`` (seconds /
-        baseline's seconds, both best of ``repeats``), ``census_comparisons``, and
-        ``reduction_ratio`` (adaptive methods; ``None`` for the others, so that every row has
-        the same keys).
+        baseline's seconds, both best of ``repeats``), ``median_ratio`` (the same for the
+        medians), ``census_comparisons``, ``reduction_ratio`` and ``canny`` (adaptive methods;
+        ``None`` for the others, so that every row has the same keys).
 
     Examples
     --------
     >>> rows = bench_paper_methods(shape=(24, 40), max_disparity=8, max_window=7,
     ...                            cthw_windows=(5,), repeats=1)
-    >>> [r["method"] for r in rows]
-    ['ct', 'awct', 'sct', 'awsct', 'ct', 'cthw']
+    >>> [(r["method"], r["canny"]) for r in rows]  # doctest: +NORMALIZE_WHITESPACE
+    [('ct', None), ('awct', 'skimage'), ('awct', 'opencv'), ('sct', None),
+     ('awsct', 'skimage'), ('awsct', 'opencv'), ('ct', None), ('cthw', None)]
     """
     left, right = bench_pair(shape)
     d = max_disparity
     rows: list[dict[str, object]] = []
 
-    def add(method, window, timing, baseline, base_timing):
+    def add(method, window, timing, baseline, base_timing, canny=None):
         seconds, median, res = timing
         row = {
             "method": method, "window": window, "seconds": seconds, "median_seconds": median,
             "baseline": baseline,
             "ratio": seconds / base_timing[0] if base_timing[0] else 1.0,
+            "median_ratio": median / base_timing[1] if base_timing[1] else 1.0,
             "census_comparisons": res.ops.census_comparisons,
             "reduction_ratio": getattr(res, "reduction_ratio", None),
+            "canny": canny,
         }
         rows.append(row)
 
@@ -106,9 +114,10 @@ def bench_paper_methods(
         fns[f"{base} {max_window}"] = lambda b=base: match(
             left, right, method=b, window=max_window, max_disparity=d
         )
-        fns[f"{adaptive} {max_window}"] = lambda p=pattern: match_awct(
-            left, right, max_window=max_window, max_disparity=d, pattern=p
-        )
+        for impl in canny_impls:
+            fns[f"{adaptive} {max_window} {impl}"] = lambda p=pattern, c=impl: match_awct(
+                left, right, max_window=max_window, max_disparity=d, pattern=p, canny_impl=c
+            )
     for w in cthw_windows:
         fns[f"ct {w}"] = lambda w=w: match(left, right, window=w, max_disparity=d)
         fns[f"cthw {w}"] = lambda w=w: match_cthw(left, right, window=w, max_disparity=d)
@@ -116,7 +125,8 @@ def bench_paper_methods(
     for base, adaptive in (("ct", "awct"), ("sct", "awsct")):
         b = t[f"{base} {max_window}"]
         add(base, max_window, b, base, b)
-        add(adaptive, max_window, t[f"{adaptive} {max_window}"], base, b)
+        for impl in canny_impls:
+            add(adaptive, max_window, t[f"{adaptive} {max_window} {impl}"], base, b, impl)
     for w in cthw_windows:
         b = t[f"ct {w}"]
         add("ct", w, b, "ct", b)

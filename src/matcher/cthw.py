@@ -36,9 +36,9 @@ from typing import Literal
 import numba
 import numpy as np
 
-from matcher import _adaptive_kernels
+from matcher import _adaptive_kernels, _kernels
 from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
-from matcher.census import n_bits, n_words
+from matcher.census import _resolve_offsets, n_bits, n_words
 from matcher.haar import HAAR_NORMS, haar2d
 from matcher.match import MatchResult, OpCounts, match
 
@@ -46,6 +46,8 @@ __all__ = ["CTHWResult", "HH_THRESHOLD", "hh_edges", "match_cthw", "modify_dispa
 
 #: Default HH binarisation threshold, grey levels on the "average" scale.
 HH_THRESHOLD = 4.0
+#: Rows per work item of the half-resolution census kernel (as :func:`matcher.match.match`).
+_COARSE_ROWS_PER_ITEM = 2
 
 
 @dataclass(frozen=True)
@@ -174,6 +176,22 @@ def modify_disparity(
         )
     include_edge = _check_bool(include_edge, "include_edge")
     include_self = _check_bool(include_self, "include_self")
+    _check_max_path(max_path)
+    out = _path_mode(
+        disparity, edges, include_edge=include_edge, include_self=include_self, max_path=max_path
+    )
+    return np.where(out >= 0, out, np.inf).astype(np.float32)
+
+
+def _path_mode(
+    disparity: np.ndarray,
+    edges: np.ndarray,
+    *,
+    include_edge: bool,
+    include_self: bool,
+    max_path: int | None,
+) -> np.ndarray:
+    """:func:`modify_disparity` on validated input, as (H, W) int64 (``-1`` = none)."""
     steps = _check_max_path(max_path)
     d = disparity if disparity.dtype in (np.float32, np.float64) else disparity.astype(np.float64)
     di = np.empty(d.shape, dtype=np.int64)
@@ -190,7 +208,39 @@ def modify_disparity(
     _adaptive_kernels.path_mode_kernel(
         di, np.ascontiguousarray(edges), n_disp, include_edge, include_self, steps, block, out
     )
-    return np.where(out >= 0, out, np.inf).astype(np.float32)
+    return out
+
+
+def _coarse_uint8(
+    grey_l: np.ndarray, grey_r: np.ndarray, *, window: int, d_half: int, pattern: str
+) -> tuple[np.ndarray, OpCounts, np.ndarray]:
+    """Half-resolution match of uint8 views on integer Haar sums (exact, faster).
+
+    ``LL`` of either norm is a positive power-of-two multiple of the 2 x 2 sum, so the census
+    of the integer sums (uint16, 0..1020) is bit-identical to that of the float ``LL`` band,
+    and it runs on the integer kernel path. Returns the coarse disparity (as
+    :func:`matcher.match.match`), its operation counts and ``HH`` on the ``"average"`` scale.
+    """
+    h2, w2 = (grey_l.shape[0] + 1) // 2, (grey_l.shape[1] + 1) // 2
+    ll_l = np.empty((h2, w2), np.uint16)
+    ll_r = np.empty((h2, w2), np.uint16)
+    hh_l = np.empty((h2, w2), np.int16)
+    hh_r = np.empty((h2, w2), np.int16)
+    _adaptive_kernels.haar_sums_kernel(np.ascontiguousarray(grey_l), ll_l, hh_l)
+    _adaptive_kernels.haar_sums_kernel(np.ascontiguousarray(grey_r), ll_r, hh_r)
+    offsets = _resolve_offsets(window, pattern)
+    r = window // 2
+    disp = np.empty((h2, w2), dtype=np.float32)
+    _kernels.census_match_kernel(
+        np.pad(ll_l, r, mode="edge"), np.pad(ll_r, r, mode="edge"), offsets, r, d_half, 0, -1,
+        False, _COARSE_ROWS_PER_ITEM, numba.get_num_threads(), np.zeros(1, np.int64), disp,
+    )
+    bits = int(offsets.shape[0])
+    ops = OpCounts(
+        census_comparisons=2 * h2 * w2 * bits,
+        hamming_words=h2 * n_words(bits) * (d_half * w2 - d_half * (d_half - 1) // 2),
+    )
+    return disp, ops, hh_l * 0.25
 
 
 def match_cthw(
@@ -280,20 +330,26 @@ def match_cthw(
     include_self = _check_bool(include_self, "include_self")
     _check_max_path(max_path)
 
-    bands_l = haar2d(grey_l, norm=norm)
-    bands_r = haar2d(grey_r, norm=norm)
-    coarse = match(
-        bands_l.ll, bands_r.ll, method="ct" if pattern == "dense" else "sct", window=window,
-        max_disparity=d_half,
-    )
-    to_average = HAAR_NORMS["average"] / HAAR_NORMS[norm]
-    edges = hh_edges(bands_l.hh * to_average, threshold=hh_threshold, relative=hh_relative)
-    modified = modify_disparity(
-        coarse.disparity, edges, include_edge=include_edge, include_self=include_self,
+    if grey_l.dtype == np.uint8 and grey_r.dtype == np.uint8:
+        coarse_disp, coarse_ops, hh_avg = _coarse_uint8(
+            grey_l, grey_r, window=window, d_half=d_half, pattern=pattern
+        )
+    else:
+        bands_l = haar2d(grey_l, norm=norm)
+        bands_r = haar2d(grey_r, norm=norm)
+        coarse = match(
+            bands_l.ll, bands_r.ll, method="ct" if pattern == "dense" else "sct", window=window,
+            max_disparity=d_half,
+        )
+        coarse_disp, coarse_ops = coarse.disparity, coarse.ops
+        hh_avg = bands_l.hh * (HAAR_NORMS["average"] / HAAR_NORMS[norm])
+    edges = hh_edges(hh_avg, threshold=hh_threshold, relative=hh_relative)
+    mode = _path_mode(
+        coarse_disp, edges, include_edge=include_edge, include_self=include_self,
         max_path=max_path,
     )
-    m2 = modified * np.float32(2.0)
-    full = np.broadcast_to(m2[:, None, :, None], (h2, 2, w2, 2)).reshape(2 * h2, 2 * w2)[:h, :w]
+    full = np.empty((h, w), dtype=np.float32)
+    _adaptive_kernels.upsample2_kernel(mode, full)
     bits = n_bits(window, pattern)
     ct_ops = OpCounts(
         census_comparisons=2 * h * w * bits,
@@ -312,12 +368,12 @@ def match_cthw(
         "ct_ops": ct_ops,
     }
     return CTHWResult(
-        disparity=np.ascontiguousarray(full, dtype=np.float32),
-        ops=coarse.ops,
+        disparity=full,
+        ops=coarse_ops,
         method="cthw",
         window=window,
         max_disparity=d_full,
         params=types.MappingProxyType(params),
-        coarse=coarse.disparity,
+        coarse=coarse_disp,
         hh_edges=edges,
     )

@@ -1,4 +1,5 @@
-"""Canny edge detection (the seed paper's §2.3), a thin documented wrapper of scikit-image.
+"""Canny edge detection (the seed paper's §2.3), a thin documented wrapper of scikit-image
+(or, with ``impl="opencv"``, a faster OpenCV pipeline).
 
 We use :func:`skimage.feature.canny` (not ``cv2.Canny``) because it takes the Gaussian's
 ``sigma`` directly, as the paper describes its filter (OpenCV's Canny has no smoothing step and
@@ -11,6 +12,18 @@ dtype maximum; float images are expected on a ``0..1`` scale), applied to the So
 magnitude of the smoothed image scaled to ``0..1``; ``low=0.1, high=0.2`` are scikit-image's own defaults. The borders are smoothed with
 ``mode="nearest"`` (edge replicate) so that the image border is not itself detected as an edge;
 scikit-image also never marks the outermost row and column.
+
+``impl="opencv"`` is a faster alternative (about 8-10x at 640 x 480) built from OpenCV: a
+separable Gaussian (``cv2.sepFilter2D`` to float32, same ``sigma``, radius ``ceil(4 sigma)`` as
+scikit-image's ``truncate=4``, ``BORDER_REPLICATE`` = ``mode="nearest"``), 3 x 3 Sobel
+derivatives (the same unnormalised ``[1, 2, 1] x [-1, 0, 1]`` kernels as scikit-image), and
+``cv2.Canny(dx, dy, ..., L2gradient=True)`` on the derivatives. Threshold mapping: OpenCV
+compares the L2 magnitude of the derivatives it is given, so with derivatives of the
+``0..255``-scaled image multiplied by ``8`` (and rounded to int16) the thresholds are
+``low * 255 * 8`` and ``high * 255 * 8``, the same fractions as scikit-image's. The outermost
+row and column are cleared as scikit-image does. The edge maps differ slightly: OpenCV's
+non-maximum suppression compares the two neighbours of the nearest of four directions instead
+of interpolating, and the derivatives are rounded to 1/8 grey level.
 """
 
 from __future__ import annotations
@@ -22,7 +35,12 @@ from skimage.feature import canny
 
 from matcher._validation import check_image
 
-__all__ = ["CANNY_HIGH", "CANNY_LOW", "CANNY_SIGMA", "canny_edges"]
+__all__ = ["CANNY_HIGH", "CANNY_IMPLS", "CANNY_LOW", "CANNY_SIGMA", "canny_edges"]
+
+#: Accepted values of ``impl``.
+CANNY_IMPLS = ("skimage", "opencv")
+#: Derivative scale of ``impl="opencv"`` (int16 derivatives in 1/8 grey levels).
+_CV_SCALE = 8.0
 
 #: Default Gaussian standard deviation, pixels (scikit-image's default; the paper gives none).
 CANNY_SIGMA = 1.0
@@ -50,6 +68,7 @@ def canny_edges(
     sigma: float = CANNY_SIGMA,
     low: float = CANNY_LOW,
     high: float = CANNY_HIGH,
+    impl: str = "skimage",
 ) -> np.ndarray:
     """Canny edge map of a grey (or RGB) image.
 
@@ -63,6 +82,9 @@ def canny_edges(
         Standard deviation of the Gaussian smoothing, pixels; ``> 0``.
     low, high : float, default 0.1 and 0.2
         Hysteresis thresholds as fractions of the intensity range, ``0 <= low <= high <= 1``.
+    impl : {"skimage", "opencv"}, default "skimage"
+        ``"skimage"``: :func:`skimage.feature.canny`; ``"opencv"``: the faster OpenCV
+        pipeline described in the module docstring (slightly different edge maps).
 
     Returns
     -------
@@ -95,6 +117,36 @@ def canny_edges(
         raise ValueError(
             f"low, high: expected low <= high, got low={lo} and high={hi}; swap them"
         )
+    if impl not in CANNY_IMPLS:
+        raise ValueError(f"impl: expected one of {CANNY_IMPLS}, got {impl!r}")
+    if impl == "opencv":
+        return _canny_opencv(grey, dtype_max, float(sigma), lo, hi)
     scaled = grey.astype(np.float64) / dtype_max
     # Thresholds are passed on the 0..1 scale (float64's dtype max is 1 for scikit-image).
     return canny(scaled, sigma=float(sigma), low_threshold=lo, high_threshold=hi, mode="nearest")
+
+
+def _canny_opencv(
+    grey: np.ndarray, dtype_max: float, sigma: float, lo: float, hi: float
+) -> np.ndarray:
+    """``impl="opencv"`` of :func:`canny_edges` on a validated grey image."""
+    import cv2
+
+    # 0..255 scale; uint8 is filtered as it is (straight to float32, no conversion pass)
+    if grey.dtype == np.uint8:
+        img = grey
+    else:
+        img = grey.astype(np.float32) * np.float32(255.0 / dtype_max)
+    radius = int(np.ceil(4.0 * sigma))  # scikit-image / scipy: truncate = 4
+    g = cv2.getGaussianKernel(2 * radius + 1, sigma, cv2.CV_32F)
+    smooth = cv2.sepFilter2D(img, cv2.CV_32F, g, g, borderType=cv2.BORDER_REPLICATE)
+    # int16 output, rounded to nearest; no saturation since 8 * 4 * 255 < 32767
+    dx16 = cv2.Sobel(smooth, cv2.CV_16S, 1, 0, ksize=3, scale=_CV_SCALE,
+                     borderType=cv2.BORDER_REPLICATE)
+    dy16 = cv2.Sobel(smooth, cv2.CV_16S, 0, 1, ksize=3, scale=_CV_SCALE,
+                     borderType=cv2.BORDER_REPLICATE)
+    scale = 255.0 * _CV_SCALE
+    edges = cv2.Canny(dx16, dy16, lo * scale, hi * scale, L2gradient=True) > 0
+    edges[0, :] = edges[-1, :] = False
+    edges[:, 0] = edges[:, -1] = False
+    return edges

@@ -147,3 +147,81 @@ def test_match_awct_bad_input():
         match_awct(left, right, max_window=9, max_disparity=8, edges=np.zeros((3, 3), bool))
     with pytest.raises(ValueError, match="left and right"):
         match_awct(left, right[:, :-1], max_window=9, max_disparity=8)
+
+
+def _kernel_run(left, right, wmap_l, wmap_r, max_window, d, left_only):
+    """adaptive_wta_kernel with given window maps; (disparity, totals)."""
+    import numba
+
+    from matcher import _adaptive_kernels
+    from matcher.adaptive import _code_tables
+    from matcher.census import _padded
+
+    bits_of, offsets = _code_tables(3, max_window, "dense")
+    out = np.empty(left.shape, np.float32)
+    totals = np.empty((left.shape[0], 4), np.int64)
+    _adaptive_kernels.adaptive_wta_kernel(
+        _padded(left, max_window), _padded(right, max_window), offsets, max_window // 2,
+        wmap_l.copy(), wmap_r.copy(), bits_of, d, left_only, np.empty((0, 0), np.int32), 0,
+        np.arange(3, max_window + 1, 2), 5, 0, numba.get_num_threads(), np.zeros(1, np.int64),
+        out, totals,
+    )
+    return out, totals
+
+
+def test_left_only_kernel_path_equals_the_masked_path():
+    # "left_pixel" maps satisfy bits_r >= bits_l for every candidate, so both kernel paths
+    # apply: plain costs + re-scored small-window pixels, and per-word prefix masks
+    from matcher import _adaptive_kernels
+
+    left, right = _textured_pair(4, shape=(30, 44))
+    rng = np.random.default_rng(7)
+    wmap = rng.choice(np.array([3, 5, 7, 9], np.uint8), size=left.shape, p=[0.1, 0.1, 0.1, 0.7])
+    wmap[::3] = 9  # rows where every pixel has the largest window (the plain path)
+    wmap_r = np.empty_like(wmap)
+    _adaptive_kernels.right_window_map(wmap, 6, wmap_r)
+    fast, t_fast = _kernel_run(left, right, wmap, wmap_r, 9, 6, True)
+    masked, t_masked = _kernel_run(left, right, wmap, wmap_r, 9, 6, False)
+    assert np.array_equal(fast, masked) and np.array_equal(t_fast, t_masked)
+    bits = wmap.astype(np.int64) ** 2 - 1
+    assert np.array_equal(t_fast[:, 2], bits.sum(axis=1))
+
+
+def test_result_window_maps_equal_select_windows_and_the_sliding_maximum():
+    left, right = _textured_pair(5, shape=(36, 40))
+    e = np.random.default_rng(2).random(left.shape) < 0.08
+    d = 5
+    for right_windows in ("left_pixel", "left_map"):
+        res = match_awct(left, right, max_window=11, max_disparity=d, n_decreases=2, edges=e,
+                         right_windows=right_windows)
+        expected = select_windows(e, max_window=11, n_decreases=2)
+        assert np.array_equal(res.window_map, expected)
+        if right_windows == "left_map":
+            assert np.array_equal(res.window_map_right, expected)
+        else:
+            w = e.shape[1]
+            brute = np.array([[row[q : q + d].max() for q in range(w)] for row in expected])
+            assert np.array_equal(res.window_map_right, brute)
+
+
+def test_right_window_map_hand_example():
+    from matcher import _adaptive_kernels
+
+    row = np.array([[3, 9, 5, 5, 7, 3, 3]], np.uint8)
+    out = np.empty_like(row)
+    _adaptive_kernels.right_window_map(row, 3, out)
+    assert out.tolist() == [[9, 9, 7, 7, 7, 3, 3]]
+    _adaptive_kernels.right_window_map(row, 1, out)
+    assert out.tolist() == row.tolist()
+
+
+def test_canny_impl_option():
+    left, right = _textured_pair(6)
+    a = match_awct(left, right, max_window=9, max_disparity=8, canny_impl="opencv")
+    from matcher.edges import canny_edges
+
+    assert np.array_equal(a.edges, canny_edges(left, impl="opencv"))
+    assert a.params["canny_impl"] == "opencv"
+    assert match_awct(left, right, max_window=9, max_disparity=8).params["canny_impl"] == "skimage"
+    with pytest.raises(ValueError, match="canny_impl"):
+        match_awct(left, right, max_window=9, max_disparity=8, canny_impl="cv2")

@@ -159,3 +159,25 @@ def test_no_edges_equals_ct_bit_exactly(seed, h, w):
     left, right = _pair(seed, h, w, 3)
     res = match_awct(left, right, max_window=9, max_disparity=8, edges=np.zeros((h, w), bool))
     assert np.array_equal(res.disparity, match(left, right, window=9, max_disparity=8).disparity)
+
+
+@given(st.integers(1, 40), st.integers(1, 40), st.integers(0, 2**32 - 1))
+def test_right_window_map_is_the_sliding_maximum(w, d, seed):
+    from matcher import _adaptive_kernels
+
+    d = min(d, w)
+    rng = np.random.default_rng(seed)
+    wmap = rng.choice(np.arange(3, 22, 2).astype(np.uint8), size=(3, w))
+    out = np.empty_like(wmap)
+    _adaptive_kernels.right_window_map(wmap, d, out)
+    brute = np.array([[row[q : q + d].max() for q in range(w)] for row in wmap])
+    assert np.array_equal(out, brute)
+
+
+def test_sliding_maximum_example():
+    from matcher import _adaptive_kernels
+
+    wmap = np.array([[5, 3, 3, 11, 3, 7]], np.uint8)
+    out = np.empty_like(wmap)
+    _adaptive_kernels.right_window_map(wmap, 2, out)
+    assert out.tolist() == [[5, 3, 11, 11, 7, 7]]

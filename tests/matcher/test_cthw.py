@@ -128,3 +128,32 @@ def test_match_cthw_bad_input(kwargs, exc, name):
     args = {"window": 5, "max_disparity": 8} | kwargs
     with pytest.raises(exc, match=name):
         match_cthw(img, img, **args)
+
+
+@pytest.mark.parametrize("shape", [(32, 48), (33, 47)])
+@pytest.mark.parametrize("norm", ["orthonormal", "average"])
+@pytest.mark.parametrize("pattern", ["dense", "sparse"])
+def test_uint8_integer_haar_path_equals_the_float_path(shape, norm, pattern):
+    # uint8 views take the integer path (uint16 Haar sums, integer census); float64 copies of
+    # the same views take haar2d + match on the float LL band: the results are bit-identical
+    right = _textured(shape, seed=3)
+    left = np.roll(right, 4, axis=1)
+    a = match_cthw(left, right, window=5, max_disparity=10, norm=norm, pattern=pattern)
+    b = match_cthw(left.astype(np.float64), right.astype(np.float64), window=5,
+                   max_disparity=10, norm=norm, pattern=pattern)
+    assert np.array_equal(a.disparity, b.disparity)
+    assert np.array_equal(a.coarse, b.coarse) and np.array_equal(a.hh_edges, b.hh_edges)
+    assert a.ops == b.ops
+
+
+def test_haar_sums_kernel_matches_haar2d():
+    from matcher import _adaptive_kernels
+    from matcher.haar import haar2d
+
+    img = np.array([[4, 2, 9], [0, 2, 1], [255, 0, 7]], np.uint8)
+    ll = np.empty((2, 2), np.uint16)
+    hh = np.empty((2, 2), np.int16)
+    _adaptive_kernels.haar_sums_kernel(img, ll, hh)
+    bands = haar2d(img, norm="average")
+    assert ll.tolist() == [[8, 20], [510, 28]]  # odd sides replicate: 7 + 7 + 7 + 7
+    assert np.array_equal(ll, bands.ll * 4) and np.array_equal(hh, bands.hh * 4)
