@@ -1,19 +1,19 @@
-"""Canny edge detection (the seed paper's §2.3), a thin documented wrapper of scikit-image
-(or, with ``impl="opencv"``, a faster OpenCV pipeline).
+"""Canny edge detection (the seed paper's §2.3): a fast OpenCV pipeline (default) checked
+against scikit-image's reference implementation (``impl="skimage"``).
 
-We use :func:`skimage.feature.canny` (not ``cv2.Canny``) because it takes the Gaussian's
-``sigma`` directly, as the paper describes its filter (OpenCV's Canny has no smoothing step and
-fixed 3 x 3 / 5 x 5 / 7 x 7 Sobel apertures). Its steps: Gaussian smoothing with ``sigma``, Sobel
-gradients, non-maximum suppression along the gradient direction (bilinear), hysteresis with
-``low`` and ``high``.
+Both take the Gaussian's ``sigma`` directly, as the paper describes its filter. Steps: Gaussian
+smoothing with ``sigma``, Sobel gradients, non-maximum suppression along the gradient direction,
+hysteresis with ``low`` and ``high``.
 
 Thresholds are fractions of the image dtype's full range (uint8: 255, other integers: their
 dtype maximum; float images are expected on a ``0..1`` scale), applied to the Sobel gradient
-magnitude of the smoothed image scaled to ``0..1``; ``low=0.1, high=0.2`` are scikit-image's own defaults. The borders are smoothed with
+magnitude of the smoothed image scaled to ``0..1``; ``low=0.1, high=0.2`` are scikit-image's own
+defaults. The borders are smoothed with
 ``mode="nearest"`` (edge replicate) so that the image border is not itself detected as an edge;
 scikit-image also never marks the outermost row and column.
 
-``impl="opencv"`` is a faster alternative (about 8-10x at 640 x 480) built from OpenCV: a
+``impl="opencv"`` (the default; about 8-10x faster than scikit-image at 640 x 480) is built from
+OpenCV: a
 separable Gaussian (``cv2.sepFilter2D`` to float32, same ``sigma``, radius ``ceil(4 sigma)`` as
 scikit-image's ``truncate=4``, ``BORDER_REPLICATE`` = ``mode="nearest"``), 3 x 3 Sobel
 derivatives (the same unnormalised ``[1, 2, 1] x [-1, 0, 1]`` kernels as scikit-image), and
@@ -23,7 +23,9 @@ compares the L2 magnitude of the derivatives it is given, so with derivatives of
 ``low * 255 * 8`` and ``high * 255 * 8``, the same fractions as scikit-image's. The outermost
 row and column are cleared as scikit-image does. The edge maps differ slightly: OpenCV's
 non-maximum suppression compares the two neighbours of the nearest of four directions instead
-of interpolating, and the derivatives are rounded to 1/8 grey level.
+of interpolating, and the derivatives are rounded to 1/8 grey level. On the paper's six
+Middlebury scenes (third size) the two maps agree on 97.5-99.6 % of the pixels, and AWCT's PoBMP at
+a largest window of 21 moves by at most 0.02 points; the default is OpenCV for speed.
 """
 
 from __future__ import annotations
@@ -68,7 +70,7 @@ def canny_edges(
     sigma: float = CANNY_SIGMA,
     low: float = CANNY_LOW,
     high: float = CANNY_HIGH,
-    impl: str = "skimage",
+    impl: str = "opencv",
 ) -> np.ndarray:
     """Canny edge map of a grey (or RGB) image.
 
@@ -82,9 +84,11 @@ def canny_edges(
         Standard deviation of the Gaussian smoothing, pixels; ``> 0``.
     low, high : float, default 0.1 and 0.2
         Hysteresis thresholds as fractions of the intensity range, ``0 <= low <= high <= 1``.
-    impl : {"skimage", "opencv"}, default "skimage"
-        ``"skimage"``: :func:`skimage.feature.canny`; ``"opencv"``: the faster OpenCV
-        pipeline described in the module docstring (slightly different edge maps).
+    impl : {"opencv", "skimage"}, default "opencv"
+        ``"opencv"``: the OpenCV pipeline described in the module docstring (about 9x faster);
+        ``"skimage"``: :func:`skimage.feature.canny`, the reference it was checked against
+        (edge maps agree on 97.5-99.6 % of the pixels of the paper's six Middlebury scenes, and
+        AWCT's PoBMP there moves by at most 0.02 points).
 
     Returns
     -------
