@@ -317,11 +317,19 @@ def bench_render_cmd(out, pairs, sizes, backend) -> None:
 @click.option("--repeats", default=3, show_default=True, type=click.IntRange(min=1))
 def bench_match_cmd(out, repeats) -> None:
     """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
-    from matcher.bench import bench_match
+    from matcher.bench import bench_match, peak_memory
     from synth.bench import write_table
 
     rows = bench_match(repeats=repeats)
     click.echo(write_table(rows, Path(out), "match"))
+    memory = []
+    for method, aggregate, lr_check in (("ct", None, False), ("ct", 5, True), ("sct", None, False)):
+        m = peak_memory(width=1280, height=960, max_disparity=256, window=21, method=method,
+                        aggregate=aggregate, lr_check=lr_check)
+        memory.append({"case": f"{method.upper()} 21x21, 1280x960, D=256"
+                               + (f", aggregate {aggregate}, LR check" if aggregate else ""),
+                       **m, "target_mb": 1024})
+    click.echo(write_table(memory, Path(out), "match-memory"))
 
 
 @bench.command("paper")
