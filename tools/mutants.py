@@ -85,14 +85,15 @@ MUTANTS = (
     Mutant(
         "N miscounted (one decrease too few)",
         "src/matcher/_adaptive_kernels.py",
-        (("rn >= n_decreases:", "rn >= n_decreases - 1:"),),
+        (("if rn == n_decreases and", "if rn == n_decreases - 1 and"),),
         "AWCT stops after N - 1 consecutive decreases of the edge proportion",
     ),
     Mutant(
-        "AWCT compares over the larger window",
+        "AWCT ignores the smaller window",
         "src/matcher/_adaptive_kernels.py",
-        (("b = min(bll[i], brr[i])", "b = max(bll[i], brr[i])"),),
-        "Hamming over the larger window's prefix instead of the smaller one's",
+        (("            if b >= total_bits:\n                continue",
+          "            if b >= 0:\n                continue"),),
+        "pixels with a small window are scored over the largest window's code, not their prefix",
     ),
 )
 
