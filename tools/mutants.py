@@ -114,7 +114,7 @@ def _plant(work: Path, mutant: Mutant) -> str:
             raise LookupError(f"{mutant.path}: target text not found (did the code move?): {old!r}")
         text = text.replace(old, new)
     path.write_text(text)
-    old, new = mutant.edits[-1]
+    old, new = (" ".join(t.split()) for t in mutant.edits[-1])  # one line for the table
     more = f" (+{len(mutant.edits) - 1} alike)" if len(mutant.edits) > 1 else ""
     return f"{old} -> {new}{more}"
 
