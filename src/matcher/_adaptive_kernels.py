@@ -22,8 +22,6 @@ __all__ = [
     "select_windows_kernel",
 ]
 
-_BIG = np.uint32(0xFFFFFFFF)
-
 
 @njit(cache=True)
 def _integral(edges, pad, integral):  # pragma: no cover - compiled

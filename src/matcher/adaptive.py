@@ -59,7 +59,7 @@ from matcher import _adaptive_kernels
 from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
 from matcher.census import MAX_WINDOW, _padded, _resolve_offsets, n_bits, n_words
 from matcher.edges import CANNY_HIGH, CANNY_IMPLS, CANNY_LOW, CANNY_SIGMA, canny_edges
-from matcher.match import MatchResult, OpCounts
+from matcher.match import MatchResult, OpCounts, _census_ops
 
 __all__ = ["AdaptiveResult", "RIGHT_WINDOWS", "match_awct", "match_awsct", "select_windows"]
 
@@ -286,7 +286,9 @@ def match_awct(
         )
 
     if edges is None:
-        edges = canny_edges(grey_l, sigma=sigma, low=low, high=high, impl=canny_impl)
+        # the original image, not grey_l: Canny's thresholds are fractions of the input dtype's
+        # range, which check_image's float conversion of a uint16 image would lose
+        edges = canny_edges(left, sigma=sigma, low=low, high=high, impl=canny_impl)
     elif not (isinstance(edges, np.ndarray) and edges.shape == grey_l.shape):
         raise ValueError(
             f"edges: expected None or a bool array of shape {grey_l.shape} (the image's), got "
@@ -296,7 +298,7 @@ def match_awct(
     wmap = np.empty(grey_l.shape, dtype=np.uint8)  # chosen inside the kernel, row by row
     integral, pad = _adaptive_kernels.edge_integral(edges, max_window)
     if right_windows == "right_edges":
-        edges_r = canny_edges(grey_r, sigma=sigma, low=low, high=high, impl=canny_impl)
+        edges_r = canny_edges(right, sigma=sigma, low=low, high=high, impl=canny_impl)
         wmap_r = select_windows(
             edges_r, max_window=max_window, n_decreases=n, min_window=int(sides[0])
         )
@@ -318,10 +320,7 @@ def match_awct(
         census_comparisons=int(rows[:, 2].sum() + rows[:, 3].sum()),
         hamming_words=int(rows[:, 1].sum()),
     )
-    ct_ops = OpCounts(
-        census_comparisons=2 * h * w * total_bits,
-        hamming_words=h * n_words(total_bits) * (d * w - d * (d - 1) // 2),
-    )
+    ct_ops = _census_ops((h, w), total_bits, d)
     ratio = 1.0 - ops.census_comparisons / ct_ops.census_comparisons
     params = {
         "min_window": int(sides[0]),

@@ -40,7 +40,7 @@ from matcher import _adaptive_kernels, _kernels
 from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
 from matcher.census import _resolve_offsets, n_bits, n_words
 from matcher.haar import HAAR_NORMS, haar2d
-from matcher.match import MatchResult, OpCounts, match
+from matcher.match import MatchResult, OpCounts, _census_ops, match
 
 __all__ = ["CTHWResult", "HH_THRESHOLD", "hh_edges", "match_cthw", "modify_disparity"]
 
@@ -236,10 +236,7 @@ def _coarse_uint8(
         False, _COARSE_ROWS_PER_ITEM, numba.get_num_threads(), np.zeros(1, np.int64), disp,
     )
     bits = int(offsets.shape[0])
-    ops = OpCounts(
-        census_comparisons=2 * h2 * w2 * bits,
-        hamming_words=h2 * n_words(bits) * (d_half * w2 - d_half * (d_half - 1) // 2),
-    )
+    ops = _census_ops((h2, w2), bits, d_half)
     return disp, ops, hh_l * 0.25
 
 
@@ -351,10 +348,7 @@ def match_cthw(
     full = np.empty((h, w), dtype=np.float32)
     _adaptive_kernels.upsample2_kernel(mode, full)
     bits = n_bits(window, pattern)
-    ct_ops = OpCounts(
-        census_comparisons=2 * h * w * bits,
-        hamming_words=h * n_words(bits) * (d_full * w - d_full * (d_full - 1) // 2),
-    )
+    ct_ops = _census_ops((h, w), bits, d_full)
     params = {
         "hh_threshold": hh_threshold,
         "hh_relative": hh_relative,

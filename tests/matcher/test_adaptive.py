@@ -225,3 +225,15 @@ def test_canny_impl_option():
     assert match_awct(left, right, max_window=9, max_disparity=8).params["canny_impl"] == "opencv"
     with pytest.raises(ValueError, match="canny_impl"):
         match_awct(left, right, max_window=9, max_disparity=8, canny_impl="cv2")
+
+
+def test_edges_follow_the_input_dtype_range():
+    # Canny's thresholds are fractions of the input dtype's range: a uint16 copy scaled by 257
+    # (same image, 0..65535) must choose the same edges, windows and disparities as the uint8
+    left, right = _textured_pair(6)
+    a = match_awct(left, right, max_window=9, max_disparity=8)
+    b = match_awct(left.astype(np.uint16) * 257, right.astype(np.uint16) * 257, max_window=9,
+                   max_disparity=8)
+    assert a.edges.any()
+    assert np.array_equal(a.edges, b.edges) and np.array_equal(a.window_map, b.window_map)
+    assert np.array_equal(a.disparity, b.disparity)
