@@ -68,9 +68,8 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         if scene is not None:
             _fail(ValueError("give either SCENE or --from-manifest DIR INDEX, not both"))
         try:
-            prepare_output_dir(out, overwrite=overwrite)
             written = render_from_manifest(from_manifest[0], from_manifest[1], out=out,
-                                           backend=backend)
+                                           overwrite=overwrite, backend=backend)
         except (ValueError, FileNotFoundError) as exc:
             _fail(exc)
         click.echo(f"wrote {len(written)} files to {out}")

@@ -411,13 +411,14 @@ def run_dataset(
 
 
 def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path,
+                         overwrite: bool = False,
                          backend: str = "auto") -> list[Path]:
     """Re-render sample ``index`` of a dataset alone, into ``out``, with the dataset's bytes.
 
     The configuration comes from ``dataset_dir/dataset.json``; the sample need not be complete
     (this is how a failed sample is reproduced). ``out`` receives the sample's files as in the
     dataset (Middlebury: ``im0.png ...``; KITTI: ``image_2/NNNNNN_10.png ...``) plus
-    ``scene.json`` and ``sample.json``.
+    ``scene.json`` and ``sample.json``. A non-empty ``out`` is refused unless ``overwrite``.
 
     Returns
     -------
@@ -456,7 +457,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     if record.is_file() and json.loads(record.read_text())["seed"] != seed:
         raise DatasetError(f"{record} has another seed than sample {index} of {path}; the "
                            "dataset directory was modified")
-    dest = prepare_output_dir(out)
+    dest = prepare_output_dir(out, overwrite=overwrite)
     try:
         with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer:
             _produce(cfg, index, renderer, dest, header["format"])

@@ -14,7 +14,6 @@ from __future__ import annotations
 import csv
 import io
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -28,6 +27,7 @@ from matcher.edges import canny_edges
 from matcher.io.datasets import load_middlebury_2005
 from matcher.match import match
 from matcher.metrics import evaluate
+from synth.io._atomic import atomic_write_bytes, save_figure_atomic
 
 __all__ = ["PAPER_SCENES", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SIZES", "run_paper"]
 
@@ -72,31 +72,18 @@ _T23_COLUMNS = ("scene", "max_window", "method", "pobmp", "rms", "ops", "reducti
 
 
 # --------------------------------------------------------------------------- atomic writes
-def _atomic_bytes(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _write_csv(path: Path, columns: Sequence[str], rows: list[dict]) -> None:
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n")
     writer.writeheader()
     for row in rows:
         writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
-    _atomic_bytes(path, buf.getvalue().encode())
+    atomic_write_bytes(path, buf.getvalue().encode(), fsync=False)
 
 
 def _save_figure(fig: Figure, path: Path) -> None:
     FigureCanvasAgg(fig)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
-    _atomic_bytes(path, buf.getvalue())
+    save_figure_atomic(fig, path, dpi=100, bbox_inches="tight")
 
 
 # --------------------------------------------------------------------------- figures
@@ -396,5 +383,5 @@ def run_paper(
     _write_csv(out / "table3.csv", _T23_COLUMNS, t3)
     report = out / "report.md"
     text = _report(size, d, scenes, windows, max_windows, t1, t2, t3, figures, variants)
-    _atomic_bytes(report, text.encode())
+    atomic_write_bytes(report, text.encode(), fsync=False)
     return report

@@ -163,11 +163,9 @@ def contact_sheet(rows: Sequence[tuple[str, object]], path: str | Path, *, dpi: 
     fig.text(0.5, 0.005, "mask: white = visible in both, grey = occluded, black = no ground truth",
              ha="center", fontsize=8)
     fig.tight_layout(rect=(0, 0.02, 1, 1))
-    tmp = path.with_name(f".{path.name}.tmp")
+    from synth.io._atomic import save_figure_atomic
+
     try:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        tmp.replace(path)
+        return save_figure_atomic(fig, path, dpi=dpi)
     finally:
         plt.close(fig)
-        tmp.unlink(missing_ok=True)
-    return path

@@ -47,7 +47,8 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from synth.io._atomic import atomic_write_bytes
+from synth.engine import run_tasks
+from synth.io._atomic import atomic_write_bytes, save_figure_atomic
 from synth.rig import StereoRig
 
 __all__ = ["StudyConfig", "StudyConfigError", "COLUMNS", "load_study_config",
@@ -371,41 +372,6 @@ def _json(obj: Any) -> bytes:
     return (json.dumps(obj, indent=1, sort_keys=True, allow_nan=False) + "\n").encode()
 
 
-def _run_cells(task: _CellTask, indices: list[int], workers: int) -> Iterator[tuple[int, dict]]:
-    """Run ``task`` over ``indices``: the dataset engine if present, else a spawn pool."""
-    try:
-        from synth.engine import run_tasks
-    except ImportError:  # pragma: no cover - the engine ships with stereoforge today
-        return _run_cells_fallback(task, indices, workers)
-    return run_tasks(task, indices, workers=workers)
-
-
-def _fallback_init(task: _CellTask) -> None:  # pragma: no cover - runs in workers
-    from synth.render import Renderer
-
-    _FALLBACK["task"] = task
-    _FALLBACK["renderer"] = Renderer(task.width, task.height, backend=task.backend)
-
-
-def _fallback_run(index: int) -> tuple[int, dict]:  # pragma: no cover - runs in workers
-    return index, _FALLBACK["task"](index, _FALLBACK["renderer"])
-
-
-_FALLBACK: dict[str, Any] = {}
-
-
-def _run_cells_fallback(task: _CellTask, indices: list[int], workers: int
-                        ) -> Iterator[tuple[int, dict]]:  # pragma: no cover - see above
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_fallback_init,
-                             initargs=(task,)) as pool:
-        for fut in as_completed([pool.submit(_fallback_run, i) for i in indices]):
-            yield fut.result()
-
-
 # --------------------------------------------------------------------------- the run
 def _load_cell(path: Path, fingerprint: str) -> dict | None:
     try:
@@ -466,7 +432,7 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     bar = tqdm(total=len(cells), initial=len(cells) - len(pending), disable=not progress,
                desc=f"study {cfg.name}", unit="cell")
     try:
-        for _ in _run_cells(task, pending, workers):
+        for _ in run_tasks(task, pending, workers=workers):
             bar.update(1)
     finally:
         bar.close()
@@ -671,7 +637,7 @@ def _plots(cfg: StudyConfig, rows: list[dict], out: Path) -> None:
             if j == 0:
                 ax.set_ylabel("window", fontsize=7)
     fig.colorbar(im, ax=axes, shrink=0.8, label="PoBMP (%, non-occluded)")
-    fig.savefig(out / "pobmp_heatmap.png", dpi=110)
+    save_figure_atomic(fig, out / "pobmp_heatmap.png", dpi=110)
     plt.close(fig)
 
     n = len(cfg.levels)
@@ -707,5 +673,5 @@ def _plots(cfg: StudyConfig, rows: list[dict], out: Path) -> None:
     fig.suptitle(f"operations against accuracy (windows {cfg.windows[0]}..{cfg.windows[-1]}; "
                  "mean over scenes, contrasts, seeds)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(out / "ops_accuracy.png", dpi=110)
+    save_figure_atomic(fig, out / "ops_accuracy.png", dpi=110)
     plt.close(fig)

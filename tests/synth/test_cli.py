@@ -140,3 +140,18 @@ def test_eval_rejects_corrupt_pfm(tmp_path):
     _, _, gt = _shifted_pair(tmp_path)
     result = _run("eval", tmp_path / "x.pfm", gt)
     assert result.exit_code == 2 and "x.pfm" in result.output
+
+
+@pytest.mark.gl
+def test_render_from_manifest_respects_overwrite(tmp_path, renderer):
+    from synth.dataset import run_dataset
+
+    run_dataset("planes", out=tmp_path / "ds", count=1, progress=False)
+    out = tmp_path / "one"
+    out.mkdir()
+    (out / "other.txt").write_text("x")
+    refused = _run("render", "--from-manifest", tmp_path / "ds", 0, "--out", out)
+    assert refused.exit_code == 2 and "--overwrite" in refused.output
+    done = _run("render", "--from-manifest", tmp_path / "ds", 0, "--out", out, "--overwrite")
+    assert done.exit_code == 0, done.output
+    assert (out / "im0.png").read_bytes() == (tmp_path / "ds" / "000000" / "im0.png").read_bytes()

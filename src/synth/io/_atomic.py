@@ -11,7 +11,7 @@ import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["atomic_write_bytes", "write_all_atomic"]
+__all__ = ["atomic_write_bytes", "save_figure_atomic", "write_all_atomic"]
 
 
 def _default_mode() -> int:
@@ -64,6 +64,15 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
             pass
         raise
     return path
+
+
+def save_figure_atomic(fig, path: str | os.PathLike[str], **savefig_kwargs) -> Path:
+    """Render a matplotlib figure to PNG in memory, then write it with :func:`atomic_write_bytes`."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", **savefig_kwargs)
+    return atomic_write_bytes(path, buf.getvalue(), fsync=False)
 
 
 def write_all_atomic(files: dict[Path, bytes], *, fsync: bool = True) -> list[Path]:
