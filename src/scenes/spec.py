@@ -302,8 +302,11 @@ class LightSpec:
 
     def __post_init__(self) -> None:
         direction = _vec(self.direction, "LightSpec.direction", 3)
-        if not any(direction):
-            raise ValueError("LightSpec.direction must be non-zero, got (0, 0, 0)")
+        if not 0.0 < math.hypot(*direction) < math.inf:
+            raise ValueError(
+                f"LightSpec.direction must have a finite non-zero length, got {direction}; "
+                "give a direction such as (0.3, 0.5, 1.0)"
+            )
         _set(self, "direction", direction)
         _set(self, "intensity", _float(self.intensity, "LightSpec.intensity", lo=0.0))
         _set(self, "ambient", _float(self.ambient, "LightSpec.ambient", lo=0.0))
@@ -311,7 +314,7 @@ class LightSpec:
     def unit_direction(self) -> np.ndarray:
         """The light direction normalised to unit length, a (3,) float64 array."""
         d = np.asarray(self.direction, dtype=np.float64)
-        return d / np.linalg.norm(d)
+        return d / math.hypot(*self.direction)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,8 @@ Examples
 
 from __future__ import annotations
 
+import math
+
 from hypothesis import strategies as st
 
 from scenes.spec import (
@@ -74,8 +76,8 @@ def object_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = tuple(OBJECT_KINDS
 
 
 def light_specs() -> st.SearchStrategy[LightSpec]:
-    """:class:`LightSpec` values with a non-zero direction."""
-    direction = _vec3(_finite).filter(any)
+    """:class:`LightSpec` values with a direction of finite, non-zero length."""
+    direction = _vec3(_finite).filter(lambda v: 0.0 < math.hypot(*v) < math.inf)
     return st.builds(LightSpec, direction=direction,
                      intensity=st.floats(min_value=0.0, allow_infinity=False),
                      ambient=st.floats(min_value=0.0, allow_infinity=False))

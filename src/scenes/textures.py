@@ -60,8 +60,8 @@ def texture_shape(spec: TextureSpec, *, extent: tuple[float, float],
     (65, 129)
     """
     width, height = _check_extent(extent)
-    if max_side < 2:
-        raise ValueError(f"max_side must be >= 2, got {max_side}")
+    if max_side < 3:
+        raise ValueError(f"max_side must be >= 3 (the smallest texture side), got {max_side}")
     if pixels_per_metre is None:
         if spec.kind == "constant":
             ppm = _CONSTANT_SIDE / max(width, height)

@@ -144,7 +144,7 @@ def test_dict_errors_name_the_problem(data: dict, pattern: str) -> None:
     (lambda: ObjectSpec("terrain", Pose(), (1.0, 1.0, -0.1)), r"amplitude must be > 0.*>= 0"),
     (lambda: ObjectSpec("moebius", Pose(), (1.0, 2.0)), r"width must be < 2 \* radius"),
     (lambda: ObjectSpec("sphere", Pose(), (1.0,), segments=2), r"segments must be in \[3, "),
-    (lambda: LightSpec(direction=(0.0, 0.0, 0.0)), r"direction must be non-zero"),
+    (lambda: LightSpec(direction=(0.0, 0.0, 0.0)), r"direction must have a finite non-zero length"),
     (lambda: LightSpec(intensity=-1.0), r"intensity must be >= 0.0"),
     (lambda: SceneSpec("s", (), ), r"at least one ObjectSpec"),
     (lambda: SceneSpec("s", (ObjectSpec("sphere", Pose(), (1.0,)),), background=(2.0, 0, 0)),
@@ -180,3 +180,10 @@ def test_numpy_scalars_are_coerced() -> None:
     assert type(tex.frequency) is float and type(tex.seed) is int
     assert loads_toml(dumps_toml(SceneSpec("s", (ObjectSpec("sphere", Pose(), (1.0,), tex),)))
                       ).objects[0].texture == tex
+
+
+@pytest.mark.parametrize("direction", [(1e-200, 0.0, 0.0), (1e200, 1e200, 0.0), (0.3, 0.5, 1.0)])
+def test_light_unit_direction_survives_tiny_and_huge_lengths(direction):
+    # the squared norm of these under/overflows; the direction itself is fine
+    u = LightSpec(direction=direction).unit_direction()
+    assert np.isfinite(u).all() and abs(float(np.linalg.norm(u)) - 1.0) < 1e-12

@@ -124,7 +124,8 @@ def test_shape_follows_extent_and_sampling() -> None:
     ({"extent": (0.0, 1.0)}, "extent must be two finite sizes > 0"),
     ({"extent": (1.0,)}, r"extent must be \(width, height\)"),
     ({"extent": (1.0, 1.0), "pixels_per_metre": -1.0}, "pixels_per_metre must be finite and > 0"),
-    ({"extent": (1.0, 1.0), "max_side": 1}, "max_side must be >= 2"),
+    ({"extent": (1.0, 1.0), "max_side": 1}, "max_side must be >= 3"),
+    ({"extent": (1.0, 1.0), "max_side": 2}, "max_side must be >= 3"),  # below the smallest side
 ])
 def test_bad_arguments(kwargs: dict, pattern: str) -> None:
     with pytest.raises(ValueError, match=pattern):
