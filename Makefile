@@ -7,7 +7,7 @@ PYTHON    ?= python3
 VENV      ?= .venv
 PY        := $(VENV)/bin/python
 PIP       := $(PY) -m pip
-SYS_PKGS  := libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libosmesa6 libglu1-mesa
+SYS_PKGS  := python3-venv libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libosmesa6 libglu1-mesa
 PYTEST_ARGS ?=
 
 .PHONY: demo test setup system venv bench clean

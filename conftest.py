@@ -11,6 +11,23 @@ import os
 import pytest
 from _pytest.doctest import DoctestItem
 
+def require_or_skip(reason: str, *, env: str) -> None:
+    """Skip with ``reason``, or fail when the environment variable ``env`` demands the resource.
+
+    CI sets ``STEREOFORGE_REQUIRE_GL``, ``STEREOFORGE_REQUIRE_REALDATA`` and
+    ``STEREOFORGE_REQUIRE_RAY`` so that nothing it installs may be skipped.
+    """
+    if os.environ.get(env, "") not in ("", "0", "false", "no"):
+        pytest.fail(f"{reason} ({env}=1 forbids skipping)")
+    pytest.skip(reason)
+
+
+@pytest.fixture(name="require_or_skip", scope="session")
+def _require_or_skip_fixture():
+    """:func:`require_or_skip` for test modules (conftest files are not importable by name)."""
+    return require_or_skip
+
+
 #: Modules whose examples render.
 _GL_DOCTEST_PREFIXES = ("synth.render.", "synth.pair.", "synth.dataset.")
 _gl_error: list[str | None] = []
@@ -35,7 +52,4 @@ def _gl_doctests(request: pytest.FixtureRequest) -> None:
     if isinstance(item, DoctestItem) and item.name.startswith(_GL_DOCTEST_PREFIXES):
         error = _gl_unavailable()
         if error is not None:
-            reason = f"example needs OpenGL: {error}"
-            if os.environ.get("STEREOFORGE_REQUIRE_GL", "") not in ("", "0", "false", "no"):
-                pytest.fail(f"{reason} (STEREOFORGE_REQUIRE_GL=1 forbids skipping)")
-            pytest.skip(reason)
+            require_or_skip(f"example needs OpenGL: {error}", env="STEREOFORGE_REQUIRE_GL")

@@ -39,12 +39,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
-def _truthy(name: str) -> bool:
-    return os.environ.get(name, "") not in ("", "0", "false", "no")
-
-
 @pytest.fixture(scope="session")
-def middlebury_dir(request: pytest.FixtureRequest) -> Path:
+def middlebury_dir(request: pytest.FixtureRequest, require_or_skip) -> Path:
     """The Middlebury data folder; skips (with the reason) only where it is absent.
 
     In CI ``STEREOFORGE_REQUIRE_REALDATA=1`` turns the skip into a failure.
@@ -56,14 +52,5 @@ def middlebury_dir(request: pytest.FixtureRequest) -> Path:
             f"Middlebury data not found at {path} (expected {path}/third/<Scene>/view1.png); "
             "pass --middlebury DIR or set STEREOFORGE_MIDDLEBURY"
         )
-        if _truthy("STEREOFORGE_REQUIRE_REALDATA"):
-            pytest.fail(reason)
-        pytest.skip(reason)
+        require_or_skip(reason, env="STEREOFORGE_REQUIRE_REALDATA")
     return path
-
-
-def require_or_skip(reason: str, *, env: str) -> None:
-    """Skip with ``reason``, or fail when the environment variable ``env`` demands the resource."""
-    if _truthy(env):
-        pytest.fail(f"{reason} ({env}=1 forbids skipping)")
-    pytest.skip(reason)

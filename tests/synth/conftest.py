@@ -10,15 +10,8 @@ import pytest
 from synth.render import GLBackendError, Renderer
 
 
-def _require_or_skip(reason: str, *, env: str) -> None:
-    # Same as tests/conftest.py's require_or_skip (not importable under importlib mode).
-    if os.environ.get(env, "") not in ("", "0", "false", "no"):
-        pytest.fail(f"{reason} ({env}=1 forbids skipping)")
-    pytest.skip(reason)
-
-
 @pytest.fixture(scope="session")
-def renderer() -> Iterator[Renderer]:
+def renderer(require_or_skip) -> Iterator[Renderer]:
     """A 64 x 48 renderer (it resizes to other rigs); skips without GL unless CI requires it.
 
     ``STEREOFORGE_TEST_GL_BACKEND=osmesa`` runs the suite on OSMesa (default: auto).
@@ -26,6 +19,6 @@ def renderer() -> Iterator[Renderer]:
     try:
         r = Renderer(64, 48, backend=os.environ.get("STEREOFORGE_TEST_GL_BACKEND", "auto"))
     except GLBackendError as exc:
-        _require_or_skip(f"no OpenGL backend: {exc}", env="STEREOFORGE_REQUIRE_GL")
+        require_or_skip(f"no OpenGL backend: {exc}", env="STEREOFORGE_REQUIRE_GL")
     with r:
         yield r

@@ -41,4 +41,4 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     for suffix in ("", "_cpu"):
         assert prof[f"total{suffix}_ms"] == pytest.approx(
             sum(prof[f"{s}{suffix}_ms"] for s in stages))
-    assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] >= 0
+    assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] > 0

@@ -49,7 +49,9 @@ def test_drawn_scene_follows_the_parameters():
     d = draw_sample(CFG, 2)
     p = d.params
     assert 0.05 <= p["scene.frequency_px"] <= 0.1 and 1 <= p["scene.occluders"] <= 3
-    assert 1.0 <= d.photometric.noise_sigma <= 2.0
+    assert d.photometric.noise_sigma == p["photometric.noise_sigma"]  # drawn value is applied
+    sigmas = {draw_sample(CFG, i).photometric.noise_sigma for i in range(8)}
+    assert len(sigmas) == 8 and all(1.0 <= s <= 2.0 for s in sigmas)  # uniform [1, 2]
     occluders = [o for o in d.scene.objects if o.name.startswith("occluder")]
     assert len(occluders) == p["scene.occluders"]
     rig = CFG.rig

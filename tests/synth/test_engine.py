@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -82,19 +81,16 @@ def test_worker_malloc_tuning_reuses_freed_memory():
     assert faults["tuned"] < faults["default"] / 20
 
 
-def _require_ray() -> None:
-    if ray_available():
-        return
-    reason = "ray is not installed (optional extra: pip install ray)"
-    if os.environ.get("STEREOFORGE_REQUIRE_RAY", "") not in ("", "0", "false", "no"):
-        pytest.fail(f"{reason}; STEREOFORGE_REQUIRE_RAY=1 forbids skipping")
-    pytest.skip(reason)
+def _require_ray(require_or_skip) -> None:
+    if not ray_available():
+        require_or_skip("ray is not installed (optional extra: pip install ray)",
+                        env="STEREOFORGE_REQUIRE_RAY")
 
 
 @pytest.mark.gl
 @pytest.mark.slow
-def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer):
-    _require_ray()
+def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_or_skip):
+    _require_ray(require_or_skip)
     import ray
 
     from synth.config import loads_config

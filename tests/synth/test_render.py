@@ -230,6 +230,7 @@ def test_egl_and_osmesa_agree() -> None:
     assert diff.max() <= 1
 
 
+@pytest.mark.gl
 def test_resolve_backend_names_a_backend_and_skipping_the_probe_works(renderer: Renderer) -> None:
     from synth.render import resolve_backend
 
