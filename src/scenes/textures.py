@@ -188,11 +188,19 @@ def _annulus(h: int, w: int, frequency: float, du: float, dv: float
     """
     fu = np.fft.rfftfreq(w, d=du)
     fv = np.fft.fftfreq(h, d=dv)
-    offset = np.hypot(fv[:, None], fu[None, :]).ravel() - frequency
     sigma = _NOISE_RELATIVE_SIGMA * frequency
-    index = np.flatnonzero(np.abs(offset) <= NOISE_BAND * sigma)
-    index = index[index != 0]  # zero mean
-    gain = np.exp(-0.5 * (offset[index] / sigma) ** 2).astype(np.float32)
+    # Only rows and columns with |fv|, fu <= the band's outer radius can hold band cells: the
+    # test below runs on that sub-grid (a conservative bound: the same cells, same values).
+    reach = (frequency + NOISE_BAND * sigma) * (1 + 1e-6)
+    rows = np.flatnonzero(np.abs(fv) <= reach)
+    cols = np.flatnonzero(fu <= reach)
+    offset = np.hypot(fv[rows, None], fu[None, cols]) - frequency
+    r, c = np.nonzero(np.abs(offset) <= NOISE_BAND * sigma)
+    offset = offset[r, c]
+    index = rows[r] * fu.size + cols[c]  # flat indices into the (h, w // 2 + 1) grid, ascending
+    keep = index != 0  # zero mean
+    index, offset = index[keep], offset[keep]
+    gain = np.exp(-0.5 * (offset / sigma) ** 2).astype(np.float32)
     index.setflags(write=False)
     gain.setflags(write=False)
     return index, gain

@@ -46,6 +46,7 @@ def bench_render(
     pairs: int = 20,
     presets: Sequence[str] | None = None,
     backend: str = "auto",
+    threads: int | None = 0,
     progress: bool = False,
 ) -> list[dict]:
     """Time scene building, rendering (colour + exact GT + masks) and writing, per preset and size.
@@ -55,6 +56,11 @@ def bench_render(
     (all threads, including llvmpipe's), i.e. the throughput of one core. Files are written as
     the dataset job writes them: atomically (temporary name, then rename), without fsync, and
     without ``preview.png``.
+
+    ``threads`` is llvmpipe's rasterizer thread count (see :class:`synth.render.Renderer`); the
+    default 0 renders in the calling thread, so the process uses one core, as each worker of
+    ``stereoforge dataset`` does. ``None`` keeps the driver's default (one thread per core:
+    faster in wall time, ~15 % more CPU per pair). Fixed per process.
 
     Returns
     -------
@@ -73,7 +79,8 @@ def bench_render(
     bar = tqdm(total=len(jobs) * pairs, desc="bench render", unit="pair", disable=not progress)
     for w, h in sizes:
         rig = StereoRig.default(w, h)
-        with Renderer(w, h, backend=backend) as renderer, tempfile.TemporaryDirectory() as tmp:
+        with Renderer(w, h, backend=backend, threads=threads) as renderer, \
+                tempfile.TemporaryDirectory() as tmp:
             for name in names:  # warm-up: shader variants compile once per process
                 render_pair(get_preset(name, seed=0), rig, renderer=renderer)
             for name in names:
@@ -97,6 +104,7 @@ def bench_render(
                     "preset": name,
                     "size": f"{w}x{h}",
                     "pairs": pairs,
+                    "threads": "auto" if threads is None else threads,
                     "pairs_per_s": pairs / wall,
                     "pairs_per_cpu_s": pairs / cpu,
                     "build_ms": 1e3 * build / pairs,

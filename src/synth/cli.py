@@ -299,12 +299,22 @@ def bench() -> None:
 @click.option("--sizes", default="640x480,1280x960", show_default=True)
 @click.option("--backend", default="auto", show_default=True,
               type=click.Choice(["auto", "egl", "osmesa"]))
-def bench_render_cmd(out, pairs, sizes, backend) -> None:
+@click.option("--threads", default="0", show_default=True,
+              help="llvmpipe rasterizer threads: 0 renders in the calling thread (one core, "
+                   "as each dataset worker does); 'auto' keeps the driver's one per core.")
+def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
     """Pairs per second for every preset: render + GT + masks + writing, one process."""
     from synth.bench import bench_render, parse_sizes, write_table
 
+    if threads == "auto":
+        n_threads = None
+    elif threads.isdigit():
+        n_threads = int(threads)
+    else:
+        _fail(ValueError(f"--threads must be 'auto' or an int >= 0, got {threads!r}"))
     try:
-        rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend, progress=True)
+        rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend,
+                            threads=n_threads, progress=True)
     except ValueError as exc:
         _fail(exc)
     click.echo(write_table(rows, Path(out), "render"))

@@ -166,6 +166,54 @@ def _choose_backend(backend: str, *, probe: bool = True) -> str:
     )
 
 
+# llvmpipe's rasterizer threads: read from LP_NUM_THREADS once per process, when the first
+# GL driver screen is created; recorded here at our first context so later requests can be checked.
+_DRIVER_THREADS: dict[str, str | None] = {}
+
+
+def _check_threads(threads: int | None) -> None:
+    if threads is None:
+        return
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
+        raise ValueError(
+            f"threads must be None (llvmpipe's default: one per core) or an int >= 0 "
+            f"(0: rasterize in the calling thread), got {threads!r}"
+        )
+
+
+def _refuse_late_threads(threads: int | None) -> None:
+    if not _DRIVER_THREADS or threads is None:
+        return
+    in_effect = _DRIVER_THREADS["value"]
+    if in_effect != str(int(threads)):
+        shown = "llvmpipe's default (one per core)" if in_effect is None else in_effect
+        raise ValueError(
+            f"threads={threads} cannot take effect: this process already started the GL "
+            f"driver with {shown} rasterizer threads, fixed for the life of the process; "
+            "pass the same value (or None), or open the Renderer in a fresh process"
+        )
+
+
+@contextmanager
+def _driver_threads(threads: int | None) -> Iterator[None]:
+    """``LP_NUM_THREADS`` set while this process starts its first GL context (the driver reads
+    it then, once), restored after; recorded in ``_DRIVER_THREADS``."""
+    if _DRIVER_THREADS:
+        yield
+        return
+    before = os.environ.get("LP_NUM_THREADS")
+    if threads is not None:
+        os.environ["LP_NUM_THREADS"] = str(int(threads))
+    try:
+        yield
+        _DRIVER_THREADS["value"] = os.environ.get("LP_NUM_THREADS")
+    finally:
+        if before is None:
+            os.environ.pop("LP_NUM_THREADS", None)
+        else:
+            os.environ["LP_NUM_THREADS"] = before
+
+
 # ---------------------------------------------------------------------------- geometry
 def _projection(rig: StereoRig) -> np.ndarray:
     """OpenGL projection of the OpenCV-convention pinhole (pixel centres at integers)."""
@@ -194,7 +242,7 @@ class _Mesh:
     name: str
     vertices: np.ndarray  # (n, 8) float32: world position, texcoord (s, t), shade (r, g, b)
     faces: np.ndarray  # (m, 3) uint32
-    image: np.ndarray | None  # (h, w, 3) uint8, row 0 at t = 0
+    image: np.ndarray | None  # (h, w, 4) uint8 RGBA (alpha 255), row 0 at t = 0
     closed: bool  # closed surface wound counter-clockwise seen from outside: cull back faces
     zmin: float
     zmax: float
@@ -265,7 +313,7 @@ def _prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity
         image = getattr(mat, "image", None) or getattr(mat, "baseColorTexture", None)
         if visual.uv is not None and image is not None:
             uv = np.asarray(visual.uv, dtype=np.float64)
-            image = _rgb_array(image)
+            image = _rgba_array(image)
         else:
             image = None
             main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)
@@ -290,17 +338,30 @@ def _prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity
     )
 
 
-def _rgb_array(image: Any) -> np.ndarray:
-    """A texture (PIL image or array) as a C-contiguous (h, w, 3) uint8 array."""
-    if getattr(image, "mode", "RGB") != "RGB":
-        image = image.convert("RGB")
+def _rgba_array(image: Any) -> np.ndarray:
+    """A texture (PIL image or array) as a C-contiguous (h, w, 4) uint8 RGBA array.
+
+    Four channels, not three: llvmpipe uploads, mipmaps and samples RGBA8 textures
+    about 2.7x faster than RGB8 ones, with the same RGB values (the shader ignores
+    alpha; arrays get alpha 255).
+    """
+    if hasattr(image, "mode") and hasattr(image, "convert"):  # a PIL image: convert in C
+        if image.mode not in ("RGB", "RGBA", "L"):
+            image = image.convert("RGB")
+        if image.mode != "RGBA":
+            image = image.convert("RGBA")
     arr = np.asarray(image)
     if arr.ndim == 2:
-        arr = np.repeat(arr[:, :, None], 3, axis=2)
-    if arr.ndim != 3 or arr.shape[2] < 3 or arr.dtype != np.uint8:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or arr.shape[2] not in (1, 3, 4) or arr.dtype != np.uint8:
         raise ValueError(f"texture images must be (h, w, 3) uint8 RGB, got {arr.shape} "
                          f"{arr.dtype}; convert the image to 8-bit RGB")
-    return np.ascontiguousarray(arr[:, :, :3])
+    if arr.shape[2] == 4:
+        return np.ascontiguousarray(arr)
+    out = np.empty(arr.shape[:2] + (4,), dtype=np.uint8)
+    out[:, :, :3] = arr
+    out[:, :, 3] = 255
+    return out
 
 
 def _check_depth_range(meshes: Sequence[_Mesh], rig: StereoRig) -> None:
@@ -458,7 +519,7 @@ class _Passes:
         self.loc_far = GL.glGetUniformLocation(self.gt_program, "inv_far")
         # untextured meshes sample a white texture: colour = shade exactly (3 x 3: llvmpipe
         # compiles other shader variants for power-of-two textures; scenes avoid them too)
-        self.white = self._texture(np.full((3, 3, 3), 255, dtype=np.uint8))
+        self.white = self._texture(np.full((3, 3, 4), 255, dtype=np.uint8))
         self.fbs: list[tuple[int, list[int]]] = []
         self.resize(width, height)
 
@@ -490,13 +551,13 @@ class _Passes:
     # ------------------------------------------------------------------ uploads
     @staticmethod
     def _texture(image: np.ndarray) -> int:
-        """Upload an (h, w, 3) uint8 image, row 0 at texture coordinate t = 0, with mipmaps."""
+        """Upload an (h, w, 4) uint8 RGBA image, row 0 at texture coordinate t = 0, with mipmaps."""
         from OpenGL import GL
 
         tex = GL.glGenTextures(1)
         GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
         h, w = image.shape[:2]
-        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGB8, w, h, 0, GL.GL_RGB,
+        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA8, w, h, 0, GL.GL_RGBA,
                         GL.GL_UNSIGNED_BYTE, image)
         GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
         GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR_MIPMAP_LINEAR)
@@ -659,6 +720,14 @@ class Renderer:
         Probe the backend in a subprocess first (default). ``False`` skips the
         probe for a named backend that :func:`resolve_backend` already found
         working on this machine (worker processes of a pool).
+    threads : int, optional
+        Rasterizer threads of Mesa's llvmpipe (``LP_NUM_THREADS``); ``None``
+        leaves its default (one per core, or the environment's value). ``0``
+        rasterizes in the calling thread: the least CPU per image (measured
+        here: ~15 % less than with worker threads), the right choice when
+        several processes already share the cores. Images do not depend on it.
+        The driver reads it once per process, at the first renderer: a later
+        renderer asking for another value raises ``ValueError``.
 
     Raises
     ------
@@ -680,19 +749,22 @@ class Renderer:
     """
 
     def __init__(self, width: int, height: int, *, backend: str = "auto",
-                 probe: bool = True) -> None:
+                 probe: bool = True, threads: int | None = None) -> None:
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive int, got {value!r}")
         _check_backend_name(backend)
+        _check_threads(threads)
+        _refuse_late_threads(threads)
         self.width, self.height = int(width), int(height)
         self._closed = True
         self._held: dict[int, tuple[Any, _GLScene]] = {}
         self.backend = _choose_backend(backend, probe=probe)
         os.environ["PYOPENGL_PLATFORM"] = self.backend  # read once, by PyOpenGL's first import
         try:
-            self._platform = self._make_platform()
-            self._platform.init_context()
+            with _driver_threads(threads):
+                self._platform = self._make_platform()
+                self._platform.init_context()
             self._platform.make_current()
             from OpenGL import GL
 

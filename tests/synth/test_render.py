@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -28,6 +30,12 @@ def test_unknown_backend_is_a_value_error() -> None:
 def test_bad_size_is_a_value_error() -> None:
     with pytest.raises(ValueError, match="width must be a positive int"):
         Renderer(0, 48)
+
+
+@pytest.mark.parametrize("threads", [-1, 1.5, True, "2"])
+def test_bad_threads_is_a_value_error(threads: object) -> None:
+    with pytest.raises(ValueError, match=r"threads must be None .* or an int >= 0"):
+        Renderer(64, 48, threads=threads)  # type: ignore[arg-type]
 
 
 def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -240,3 +248,50 @@ def test_resolve_backend_names_a_backend_and_skipping_the_probe_works(renderer: 
         assert r.backend == name
     with pytest.raises(ValueError, match="backend must be one of"):
         resolve_backend("vulkan")
+
+
+_THREADS_SCRIPT = textwrap.dedent("""
+    import hashlib, json, os, sys
+    import scenes
+    from synth.pair import render_pair
+    from synth.render import Renderer
+    from synth.rig import StereoRig
+
+    threads = int(sys.argv[1])
+    rig = StereoRig.default(96, 72)
+    with Renderer(96, 72, threads=threads) as r:
+        pair = render_pair(scenes.get_preset("flying", seed=3), rig, renderer=r)
+        env_after = os.environ.get("LP_NUM_THREADS")
+    digest = hashlib.sha256(pair.left.tobytes() + pair.right.tobytes()
+                            + pair.disp_left.tobytes() + pair.disp_right.tobytes()).hexdigest()
+    try:
+        Renderer(32, 24, threads=threads + 1)
+        late = "accepted"
+    except ValueError as exc:
+        late = str(exc)
+    with Renderer(32, 24, threads=threads):  # the value in effect is accepted again
+        pass
+    print(json.dumps({"digest": digest, "env_after": env_after, "late": late}))
+""")
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_rasterizer_threads_do_not_change_the_images(renderer: Renderer) -> None:
+    """Pixels do not depend on llvmpipe's thread count; the count is fixed per process."""
+    rig = StereoRig.default(96, 72)
+    pair = render_pair(scenes.get_preset("flying", seed=3), rig, renderer=renderer)
+    here = hashlib.sha256(pair.left.tobytes() + pair.right.tobytes()
+                          + pair.disp_left.tobytes() + pair.disp_right.tobytes()).hexdigest()
+    env = {k: v for k, v in os.environ.items() if k != "LP_NUM_THREADS"}
+    env["PYOPENGL_PLATFORM"] = renderer.backend
+    for threads in (0, 2):
+        out = subprocess.run([sys.executable, "-c", _THREADS_SCRIPT, str(threads)],
+                             capture_output=True, text=True, env=env)
+        if out.returncode != 0:
+            pytest.fail(f"threads={threads} failed:\n{out.stderr[-2000:]}")
+        res = json.loads(out.stdout)
+        assert res["digest"] == here, f"threads={threads} changed the pixels"
+        assert res["env_after"] is None  # the caller's environment is restored
+        assert f"threads={threads + 1} cannot take effect" in res["late"]
+        assert f"with {threads} rasterizer threads" in res["late"]
