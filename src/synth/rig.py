@@ -187,11 +187,14 @@ class StereoRig:
         >>> StereoRig.default(64, 48, baseline=0.5).disparity_from_depth([1.0, 30.0, float("inf")])
         array([30.,  1., inf])
         """
-        z = np.asarray(z, dtype=np.float64)
-        valid = np.isfinite(z) & (z > 0)
+        z = np.asarray(z)
+        if z.dtype.kind not in "fiub":
+            z = z.astype(np.float64)
         with np.errstate(divide="ignore", invalid="ignore"):
-            d = (self.fx * self.baseline) / z
-        return np.where(valid, d, np.inf)
+            d = np.divide(self.fx * self.baseline, z, out=np.empty(z.shape), dtype=np.float64)
+        # invalid z (inf -> d = 0, NaN, <= 0 -> d <= 0 or NaN; z = +0 gives d = +inf already)
+        np.copyto(d, np.inf, where=~(d > 0))
+        return d
 
     def depth_from_disparity(self, d: np.ndarray | float) -> np.ndarray:
         """Depth ``fx * baseline / d`` in metres, computed in float64.
