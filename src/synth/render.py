@@ -1,4 +1,4 @@
-"""The only GL module: backend choice, context lifetime, colour and exact depth.
+"""The only GL module: context lifetime, colour and exact depth.
 
 Both passes are our own shader programs in one GL context (pyrender only creates
 the EGL/OSMesa context). Colour: a view-independent Lambert shading baked into
@@ -9,42 +9,38 @@ depth ``Z`` interpolated (perspective-correctly) at each pixel centre, and a
 32-bit float depth buffer. See ``docs/ground-truth.md`` for why.
 
 pyrender and PyOpenGL are imported lazily: ``PYOPENGL_PLATFORM`` must be set
-before the first ``import OpenGL`` and cannot change afterwards.
+before the first ``import OpenGL`` and cannot change afterwards. Backend choice
+lives in :mod:`synth._backend`, scene-to-mesh preparation in :mod:`synth._meshes`.
 """
 
 from __future__ import annotations
 
 import ctypes
-import functools
 import os
-import subprocess
-import sys
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Iterator, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    import trimesh
+from synth._backend import (
+    BACKENDS,
+    DEBIAN_FIX,
+    GLBackendError,
+    check_backend_name,
+    check_threads,
+    choose_backend,
+    driver_threads,
+    refuse_late_threads,
+    resolve_backend,
+)
+from synth._meshes import Mesh, as_meshes, check_depth_range
 
+if TYPE_CHECKING:
     from synth.rig import StereoRig
 
 __all__ = ["GLBackendError", "Renderer", "ViewRender", "BACKENDS", "resolve_backend"]
-
-#: Backends in the order ``backend="auto"`` tries them.
-BACKENDS = ("egl", "osmesa")
-_DEBIAN_FIX = {
-    "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri",
-    "osmesa": "apt-get install libosmesa6",
-}
-# Default lighting for bare mesh lists (SceneSpec brings its own).
-_DEFAULT_LIGHT = ((0.3, 0.5, 1.0), 0.7, 0.3)  # direction (light -> scene), intensity, ambient
-_DISPLAY_GAMMA = 2.2
-
-
-class GLBackendError(RuntimeError):
-    """No OpenGL backend could be started (the message names each one tried and the fix)."""
 
 
 @dataclass(frozen=True)
@@ -62,156 +58,6 @@ class ViewRender:
 
     color: np.ndarray
     depth: np.ndarray
-
-
-# ---------------------------------------------------------------------------- backends
-_PROBE = """
-import os, sys
-b = sys.argv[1]
-if b == "egl":
-    from pyrender.platforms.egl import EGLPlatform, get_device_by_index
-    p = EGLPlatform(8, 8, device=get_device_by_index(0))
-else:
-    from pyrender.platforms.osmesa import OSMesaPlatform
-    p = OSMesaPlatform(8, 8)
-p.init_context()
-p.make_current()
-from OpenGL import GL
-print(GL.glGetString(GL.GL_RENDERER).decode())
-p.delete_context()
-"""
-
-
-@functools.cache
-def _probe(backend: str) -> str | None:
-    """Try ``backend`` in a subprocess; ``None`` if it starts, else the error text."""
-    env = dict(os.environ, PYOPENGL_PLATFORM=backend)
-    try:
-        out = subprocess.run(
-            [sys.executable, "-c", _PROBE, backend],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=120,
-        )
-    except (OSError, subprocess.TimeoutExpired) as exc:  # pragma: no cover - defensive
-        return f"probe failed to run: {exc}"
-    if out.returncode == 0:
-        return None
-    lines = [ln for ln in (out.stderr or out.stdout).strip().splitlines() if ln.strip()]
-    return lines[-1] if lines else f"exit status {out.returncode}"
-
-
-def _platform_in_use() -> str | None:
-    """The PyOpenGL platform this process is locked to, or ``None`` if not chosen yet."""
-    mod = sys.modules.get("OpenGL.platform")
-    if mod is None or getattr(mod, "PLATFORM", None) is None:
-        return None
-    name = type(mod.PLATFORM).__name__.lower()
-    for b in BACKENDS:
-        if b in name:
-            return b
-    return name.replace("platform", "") or name
-
-
-def resolve_backend(backend: str = "auto") -> str:
-    """The GL backend a :class:`Renderer` would start here: ``"egl"`` or ``"osmesa"``.
-
-    Each candidate is probed once per process, in a subprocess (so a broken driver cannot take
-    this process down). A parent process can resolve once and hand the name to its workers,
-    which then open ``Renderer(..., backend=name, probe=False)`` without probing again.
-
-    Raises
-    ------
-    GLBackendError
-        If no requested backend starts.
-    """
-    _check_backend_name(backend)
-    return _choose_backend(backend)
-
-
-def _check_backend_name(backend: str) -> None:
-    if backend not in ("auto",) + BACKENDS:
-        raise ValueError(
-            f"backend must be one of 'auto', 'egl', 'osmesa', got {backend!r}; "
-            "use 'auto' to try EGL then OSMesa"
-        )
-
-
-def _choose_backend(backend: str, *, probe: bool = True) -> str:
-    """Pick the backend to start in this process (probing before any OpenGL import)."""
-    wanted = list(BACKENDS) if backend == "auto" else [backend]
-    locked = _platform_in_use()
-    if locked is not None:
-        if locked in wanted:
-            return locked
-        hint = (f"use backend={locked!r} or 'auto', or" if locked in BACKENDS
-                else "stereoforge supports only 'egl' and 'osmesa':")
-        raise GLBackendError(
-            f"backend={backend!r} is not available: PyOpenGL was already imported in this "
-            f"process with the {locked!r} platform and cannot switch; {hint} create the Renderer "
-            "in a fresh process before anything imports OpenGL or pyrender (PyOpenGL reads "
-            "PYOPENGL_PLATFORM once, at import)"
-        )
-    if not probe and backend != "auto":
-        return backend
-    failures = []
-    for b in wanted:
-        err = _probe(b)
-        if err is None:
-            return b
-        failures.append(f"  {b}: {err}\n    fix (Debian): {_DEBIAN_FIX[b]}")
-    raise GLBackendError(
-        "no OpenGL backend could start; tried:\n" + "\n".join(failures)
-    )
-
-
-# llvmpipe's rasterizer threads: read from LP_NUM_THREADS once per process, when the first
-# GL driver screen is created; recorded here at our first context so later requests can be checked.
-_DRIVER_THREADS: dict[str, str | None] = {}
-
-
-def _check_threads(threads: int | None) -> None:
-    if threads is None:
-        return
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
-        raise ValueError(
-            f"threads must be None (llvmpipe's default: one per core) or an int >= 0 "
-            f"(0: rasterize in the calling thread), got {threads!r}"
-        )
-
-
-def _refuse_late_threads(threads: int | None) -> None:
-    if not _DRIVER_THREADS or threads is None:
-        return
-    in_effect = _DRIVER_THREADS["value"]
-    if in_effect != str(int(threads)):
-        shown = "llvmpipe's default (one per core)" if in_effect is None else in_effect
-        raise ValueError(
-            f"threads={threads} cannot take effect: this process already started the GL "
-            f"driver with {shown} rasterizer threads, fixed for the life of the process; "
-            "pass the same value (or None), or open the Renderer in a fresh process"
-        )
-
-
-@contextmanager
-def _driver_threads(threads: int | None) -> Iterator[None]:
-    """``LP_NUM_THREADS`` set while this process starts its first GL context (the driver reads
-    it then, once), restored after; recorded in ``_DRIVER_THREADS``."""
-    if _DRIVER_THREADS:
-        yield
-        return
-    before = os.environ.get("LP_NUM_THREADS")
-    if threads is not None:
-        os.environ["LP_NUM_THREADS"] = str(int(threads))
-    try:
-        yield
-        _DRIVER_THREADS["value"] = os.environ.get("LP_NUM_THREADS")
-    finally:
-        if before is None:
-            os.environ.pop("LP_NUM_THREADS", None)
-        else:
-            os.environ["LP_NUM_THREADS"] = before
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -235,141 +81,6 @@ def _camera_pose(rig: StereoRig, eye: str) -> np.ndarray:
     if eye == "right":
         pose[0, 3] = rig.baseline
     return pose
-
-
-@dataclass
-class _Mesh:
-    name: str
-    vertices: np.ndarray  # (n, 8) float32: world position, texcoord (s, t), shade (r, g, b)
-    faces: np.ndarray  # (m, 3) uint32
-    image: np.ndarray | None  # (h, w, 3 or 4) uint8 RGB(A), row 0 at t = 0
-    closed: bool  # closed surface wound counter-clockwise seen from outside: cull back faces
-    zmin: float
-    zmax: float
-
-
-def _as_meshes(scene: Any) -> tuple[list[_Mesh], tuple[float, float, float], dict]:
-    """SceneSpec or mesh list -> shaded meshes, background colour, metadata."""
-    import trimesh
-
-    if hasattr(scene, "objects") and hasattr(scene, "light"):
-        import scenes
-
-        meshes = list(scenes.build_meshes(scene))
-        names = [str(m.metadata.get("name") or f"{scene.name}[{i}]") for i, m in enumerate(meshes)]
-        lt = scene.light
-        light = (tuple(lt.direction), float(lt.intensity), float(lt.ambient))
-        background = tuple(float(c) for c in scene.background)
-        meta = {"scene": scene.name, "seed": scene.seed}
-    elif isinstance(scene, Sequence) and not isinstance(scene, (str, bytes)):
-        meshes = list(scene)
-        names = [str(m.metadata.get("name", f"mesh[{i}]")) if isinstance(m, trimesh.Trimesh) else ""
-                 for i, m in enumerate(meshes)]
-        light, background, meta = _DEFAULT_LIGHT, (0.0, 0.0, 0.0), {"scene": "meshes", "seed": None}
-    else:
-        raise TypeError(
-            f"scene must be a scenes.SceneSpec or a sequence of trimesh.Trimesh, got "
-            f"{type(scene).__name__}; build one with scenes.get_preset(name)"
-        )
-    if not meshes:
-        raise ValueError("the scene has no meshes; add at least one object")
-    if len(background) != 3:
-        raise ValueError(f"scene background must be 3 values in 0..1, got {background}")
-    out = []
-    lx = np.asarray(light[0], dtype=np.float64)
-    if lx.shape != (3,) or not np.all(np.isfinite(lx)) or not np.any(lx):
-        raise ValueError(f"light direction must be a finite non-zero 3-vector, got {light[0]}")
-    to_light = -lx / np.linalg.norm(lx)
-    for i, (m, name) in enumerate(zip(meshes, names)):
-        if not isinstance(m, trimesh.Trimesh):
-            raise TypeError(f"mesh {i} must be a trimesh.Trimesh, got {type(m).__name__}")
-        out.append(_prepare_mesh(m, name, to_light, light[1], light[2]))
-    return out, background, meta
-
-
-def _prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity: float,
-                  ambient: float) -> _Mesh:
-    v = np.asarray(m.vertices, dtype=np.float64)
-    f = np.asarray(m.faces)
-    if len(f) == 0 or len(v) == 0:
-        raise ValueError(
-            f"object {name!r} has no triangles; drop it from the scene or give it faces")
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"object {name!r} has non-finite vertex coordinates; fix its geometry")
-    # View-independent Lambert. Open surfaces (metadata "double_sided", the default for
-    # bare meshes: planes, a Moebius strip) have their normals turned toward the left
-    # camera (the origin) so they are lit on the side we see; closed ones keep theirs.
-    n = np.asarray(m.vertex_normals, dtype=np.float64)
-    if m.metadata.get("double_sided", True):
-        n = np.where((np.einsum("ij,ij->i", n, -v) < 0)[:, None], -n, n)
-    shade = ambient + intensity * np.clip(n @ to_light, 0.0, None)
-    # Textures hold display-encoded values: scale them by the encoded shading factor.
-    mult = np.clip(shade, 0.0, None) ** (1.0 / _DISPLAY_GAMMA)
-    color = np.repeat(mult[:, None], 3, axis=1)
-    visual = m.visual
-    uv = image = None
-    if getattr(visual, "kind", None) == "texture":
-        mat = visual.material
-        image = getattr(mat, "image", None) or getattr(mat, "baseColorTexture", None)
-        if visual.uv is not None and image is not None:
-            uv = np.asarray(visual.uv, dtype=np.float64)
-            array = m.metadata.get("texture_rgb")  # scenes' meshes carry the material's pixels
-            if (isinstance(array, np.ndarray) and array.dtype == np.uint8 and array.ndim == 3
-                    and array.shape[1::-1] == tuple(getattr(image, "size", ()))):
-                image = np.ascontiguousarray(array)
-            else:
-                image = _texture_array(image)
-        else:
-            image = None
-            main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)
-            color *= main[:3] / 255.0
-    elif getattr(visual, "kind", None) in ("vertex", "face"):
-        color *= np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
-    vertices = np.zeros((len(v), 8), dtype=np.float32)
-    vertices[:, :3] = v
-    if uv is not None:
-        # UVs follow OpenGL (v = 1 is image row 0); images are uploaded row 0 first (t = 0)
-        vertices[:, 3] = uv[:, 0]
-        vertices[:, 4] = 1.0 - uv[:, 1]
-    vertices[:, 5:] = color
-    return _Mesh(
-        name=name,
-        vertices=vertices,
-        faces=np.ascontiguousarray(f, dtype=np.uint32),
-        image=image,
-        closed=not m.metadata.get("double_sided", True),
-        zmin=float(v[:, 2].min()),
-        zmax=float(v[:, 2].max()),
-    )
-
-
-def _texture_array(image: Any) -> np.ndarray:
-    """A texture (PIL image or array) as a C-contiguous (h, w, 3 or 4) uint8 array."""
-    if hasattr(image, "mode") and hasattr(image, "convert"):  # a PIL image
-        if image.mode not in ("RGB", "RGBA"):
-            image = image.convert("RGB")
-    arr = np.asarray(image)
-    if arr.ndim == 2:
-        arr = np.repeat(arr[:, :, None], 3, axis=2)
-    if arr.ndim != 3 or arr.shape[2] not in (3, 4) or arr.dtype != np.uint8:
-        raise ValueError(f"texture images must be (h, w, 3) uint8 RGB, got {arr.shape} "
-                         f"{arr.dtype}; convert the image to 8-bit RGB")
-    return np.ascontiguousarray(arr)
-
-
-def _check_depth_range(meshes: Sequence[_Mesh], rig: StereoRig) -> None:
-    for m in meshes:
-        if m.zmin <= 0:
-            raise ValueError(
-                f"object {m.name!r} reaches z={m.zmin:.4g} <= 0, behind the left camera "
-                f"(world frame = left camera, z forward); move it in front (z > near={rig.near})"
-            )
-        if m.zmin < rig.near or m.zmax > rig.far:
-            raise ValueError(
-                f"object {m.name!r} spans z in [{m.zmin:.4g}, {m.zmax:.4g}], outside the rig's "
-                f"[near, far] = [{rig.near}, {rig.far}]; move the object or change the rig's "
-                "near/far"
-            )
 
 
 # ---------------------------------------------------------------------------- GL passes
@@ -478,7 +189,7 @@ def _set_culling(cull: bool) -> None:
 class _GLScene:
     """GL resources of one uploaded scene (released by :meth:`_Passes.release`)."""
 
-    meshes: list[_Mesh]
+    meshes: list[Mesh]
     vao_color: int
     vao_gt: int
     buffers: list[int]
@@ -566,7 +277,7 @@ class _Passes:
         GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
         return int(tex)
 
-    def upload(self, meshes: Sequence[_Mesh], meta: dict) -> _GLScene:
+    def upload(self, meshes: Sequence[Mesh], meta: dict) -> _GLScene:
         """One vertex and one index buffer for the scene; one texture per distinct image.
 
         Closed meshes come first in the index buffer, open ones after: the depth
@@ -579,7 +290,7 @@ class _Passes:
         closed = sum(int(m.faces.size) for m in meshes if m.closed)
         textures: dict[int, int] = {}
         draws = []
-        first = base = 0
+        first = 0
         for m in meshes:
             if m.image is None:
                 tex = self.white
@@ -752,16 +463,16 @@ class Renderer:
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive int, got {value!r}")
-        _check_backend_name(backend)
-        _check_threads(threads)
-        _refuse_late_threads(threads)
+        check_backend_name(backend)
+        check_threads(threads)
+        refuse_late_threads(threads)
         self.width, self.height = int(width), int(height)
         self._closed = True
         self._held: dict[int, tuple[Any, _GLScene]] = {}
-        self.backend = _choose_backend(backend, probe=probe)
+        self.backend = choose_backend(backend, probe=probe)
         os.environ["PYOPENGL_PLATFORM"] = self.backend  # read once, by PyOpenGL's first import
         try:
-            with _driver_threads(threads):
+            with driver_threads(threads):
                 self._platform = self._make_platform()
                 self._platform.init_context()
             self._platform.make_current()
@@ -777,7 +488,7 @@ class Renderer:
         except Exception as exc:
             raise GLBackendError(
                 f"the {self.backend} backend failed to start in this process: "
-                f"{type(exc).__name__}: {exc}\n  fix (Debian): {_DEBIAN_FIX[self.backend]}"
+                f"{type(exc).__name__}: {exc}\n  fix (Debian): {DEBIAN_FIX[self.backend]}"
             ) from exc
         self._closed = False
 
@@ -850,7 +561,7 @@ class Renderer:
         if key in self._held:
             yield dict(self._held[key][1].meta)
             return
-        meshes, background, meta = _as_meshes(scene)
+        meshes, background, meta = as_meshes(scene)
         self._platform.make_current()
         up = self._passes.upload(meshes, {**meta, "background": background})
         self._held[key] = (scene, up)  # keeps `scene` alive so its id is not reused
@@ -894,7 +605,7 @@ class Renderer:
             raise ValueError(f"eye must be 'left' or 'right', got {eye!r}")
         with self.uploaded(scene):
             up = self._held[id(scene)][1]
-            _check_depth_range(up.meshes, rig)
+            check_depth_range(up.meshes, rig)
             return self._render(up, rig, eye)
 
     def _render(self, up: _GLScene, rig: StereoRig, eye: str) -> ViewRender:

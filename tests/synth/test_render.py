@@ -15,7 +15,7 @@ import scenes
 import trimesh
 from PIL import Image
 
-import synth.render as render_mod
+import synth._backend as backend_mod
 from synth.pair import render_pair
 from synth.render import GLBackendError, Renderer
 from synth.rig import StereoRig
@@ -39,8 +39,8 @@ def test_bad_threads_is_a_value_error(threads: object) -> None:
 
 
 def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(render_mod, "_platform_in_use", lambda: None)
-    monkeypatch.setattr(render_mod, "_probe", lambda b: f"cannot load lib{b}")
+    monkeypatch.setattr(backend_mod, "platform_in_use", lambda: None)
+    monkeypatch.setattr(backend_mod, "probe_backend", lambda b: f"cannot load lib{b}")
     with pytest.raises(GLBackendError) as info:
         Renderer(64, 48, backend="auto")
     msg = str(info.value)
@@ -50,7 +50,7 @@ def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyP
 
 
 def test_locked_platform_error(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(render_mod, "_platform_in_use", lambda: "glx")
+    monkeypatch.setattr(backend_mod, "platform_in_use", lambda: "glx")
     with pytest.raises(GLBackendError, match=r"already imported.*'glx'.*fresh process"):
         Renderer(64, 48)
 

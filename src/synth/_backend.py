@@ -1,0 +1,178 @@
+"""GL backend choice for :mod:`synth.render`: probing, platform lock, rasterizer threads.
+
+Nothing here imports OpenGL: each backend is probed in a subprocess, and the platform PyOpenGL
+is locked to is read from ``sys.modules``. PyOpenGL reads ``PYOPENGL_PLATFORM`` once, at its
+first import; Mesa's llvmpipe reads ``LP_NUM_THREADS`` once, at the first context.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+
+__all__ = ["BACKENDS", "DEBIAN_FIX", "GLBackendError", "check_backend_name", "check_threads",
+           "choose_backend", "driver_threads", "refuse_late_threads", "resolve_backend"]
+
+#: Backends in the order ``backend="auto"`` tries them.
+BACKENDS = ("egl", "osmesa")
+DEBIAN_FIX = {
+    "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri",
+    "osmesa": "apt-get install libosmesa6",
+}
+
+class GLBackendError(RuntimeError):
+    """No OpenGL backend could be started (the message names each one tried and the fix)."""
+
+_PROBE = """
+import os, sys
+b = sys.argv[1]
+if b == "egl":
+    from pyrender.platforms.egl import EGLPlatform, get_device_by_index
+    p = EGLPlatform(8, 8, device=get_device_by_index(0))
+else:
+    from pyrender.platforms.osmesa import OSMesaPlatform
+    p = OSMesaPlatform(8, 8)
+p.init_context()
+p.make_current()
+from OpenGL import GL
+print(GL.glGetString(GL.GL_RENDERER).decode())
+p.delete_context()
+"""
+
+
+@functools.cache
+def probe_backend(backend: str) -> str | None:
+    """Try ``backend`` in a subprocess; ``None`` if it starts, else the error text."""
+    env = dict(os.environ, PYOPENGL_PLATFORM=backend)
+    try:
+        out = subprocess.run(
+            [sys.executable, "-c", _PROBE, backend],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    except (OSError, subprocess.TimeoutExpired) as exc:  # pragma: no cover - defensive
+        return f"probe failed to run: {exc}"
+    if out.returncode == 0:
+        return None
+    lines = [ln for ln in (out.stderr or out.stdout).strip().splitlines() if ln.strip()]
+    return lines[-1] if lines else f"exit status {out.returncode}"
+
+
+def platform_in_use() -> str | None:
+    """The PyOpenGL platform this process is locked to, or ``None`` if not chosen yet."""
+    mod = sys.modules.get("OpenGL.platform")
+    if mod is None or getattr(mod, "PLATFORM", None) is None:
+        return None
+    name = type(mod.PLATFORM).__name__.lower()
+    for b in BACKENDS:
+        if b in name:
+            return b
+    return name.replace("platform", "") or name
+
+
+def resolve_backend(backend: str = "auto") -> str:
+    """The GL backend a :class:`Renderer` would start here: ``"egl"`` or ``"osmesa"``.
+
+    Each candidate is probed once per process, in a subprocess (so a broken driver cannot take
+    this process down). A parent process can resolve once and hand the name to its workers,
+    which then open ``Renderer(..., backend=name, probe=False)`` without probing again.
+
+    Raises
+    ------
+    GLBackendError
+        If no requested backend starts.
+    """
+    check_backend_name(backend)
+    return choose_backend(backend)
+
+
+def check_backend_name(backend: str) -> None:
+    if backend not in ("auto",) + BACKENDS:
+        raise ValueError(
+            f"backend must be one of 'auto', 'egl', 'osmesa', got {backend!r}; "
+            "use 'auto' to try EGL then OSMesa"
+        )
+
+
+def choose_backend(backend: str, *, probe: bool = True) -> str:
+    """Pick the backend to start in this process (probing before any OpenGL import)."""
+    wanted = list(BACKENDS) if backend == "auto" else [backend]
+    locked = platform_in_use()
+    if locked is not None:
+        if locked in wanted:
+            return locked
+        hint = (f"use backend={locked!r} or 'auto', or" if locked in BACKENDS
+                else "stereoforge supports only 'egl' and 'osmesa':")
+        raise GLBackendError(
+            f"backend={backend!r} is not available: PyOpenGL was already imported in this "
+            f"process with the {locked!r} platform and cannot switch; {hint} create the Renderer "
+            "in a fresh process before anything imports OpenGL or pyrender (PyOpenGL reads "
+            "PYOPENGL_PLATFORM once, at import)"
+        )
+    if not probe and backend != "auto":
+        return backend
+    failures = []
+    for b in wanted:
+        err = probe_backend(b)
+        if err is None:
+            return b
+        failures.append(f"  {b}: {err}\n    fix (Debian): {DEBIAN_FIX[b]}")
+    raise GLBackendError(
+        "no OpenGL backend could start; tried:\n" + "\n".join(failures)
+    )
+
+
+# llvmpipe's rasterizer threads: read from LP_NUM_THREADS once per process, when the first
+# GL driver screen is created; recorded here at our first context so later requests can be checked.
+DRIVER_THREADS: dict[str, str | None] = {}
+
+
+def check_threads(threads: int | None) -> None:
+    if threads is None:
+        return
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
+        raise ValueError(
+            f"threads must be None (llvmpipe's default: one per core) or an int >= 0 "
+            f"(0: rasterize in the calling thread), got {threads!r}"
+        )
+
+
+def refuse_late_threads(threads: int | None) -> None:
+    if not DRIVER_THREADS or threads is None:
+        return
+    in_effect = DRIVER_THREADS["value"]
+    if in_effect != str(int(threads)):
+        shown = "llvmpipe's default (one per core)" if in_effect is None else in_effect
+        raise ValueError(
+            f"threads={threads} cannot take effect: this process already started the GL "
+            f"driver with {shown} rasterizer threads, fixed for the life of the process; "
+            "pass the same value (or None), or open the Renderer in a fresh process"
+        )
+
+
+@contextmanager
+def driver_threads(threads: int | None) -> Iterator[None]:
+    """``LP_NUM_THREADS`` set while this process starts its first GL context (the driver reads
+    it then, once), restored after; recorded in ``DRIVER_THREADS``."""
+    if DRIVER_THREADS:
+        yield
+        return
+    before = os.environ.get("LP_NUM_THREADS")
+    if threads is not None:
+        os.environ["LP_NUM_THREADS"] = str(int(threads))
+    try:
+        yield
+        DRIVER_THREADS["value"] = os.environ.get("LP_NUM_THREADS")
+    finally:
+        if before is None:
+            os.environ.pop("LP_NUM_THREADS", None)
+        else:
+            os.environ["LP_NUM_THREADS"] = before

@@ -1,0 +1,161 @@
+"""Scenes and mesh lists turned into what :mod:`synth.render` uploads (no GL here).
+
+Each mesh becomes interleaved float32 vertices (position, texture coordinate, baked
+view-independent Lambert shade), uint32 faces, its texture pixels and whether its back faces
+may be culled; depth-range checks against the rig happen before anything is drawn.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import trimesh
+
+    from synth.rig import StereoRig
+
+__all__ = ["DEFAULT_LIGHT", "DISPLAY_GAMMA", "Mesh", "as_meshes", "check_depth_range",
+           "prepare_mesh", "texture_array"]
+
+# Default lighting for bare mesh lists (SceneSpec brings its own).
+DEFAULT_LIGHT = ((0.3, 0.5, 1.0), 0.7, 0.3)  # direction (light -> scene), intensity, ambient
+DISPLAY_GAMMA = 2.2
+
+
+@dataclass
+class Mesh:
+    name: str
+    vertices: np.ndarray  # (n, 8) float32: world position, texcoord (s, t), shade (r, g, b)
+    faces: np.ndarray  # (m, 3) uint32
+    image: np.ndarray | None  # (h, w, 3 or 4) uint8 RGB(A), row 0 at t = 0
+    closed: bool  # closed surface wound counter-clockwise seen from outside: cull back faces
+    zmin: float
+    zmax: float
+
+
+def as_meshes(scene: Any) -> tuple[list[Mesh], tuple[float, float, float], dict]:
+    """SceneSpec or mesh list -> shaded meshes, background colour, metadata."""
+    import trimesh
+
+    if hasattr(scene, "objects") and hasattr(scene, "light"):
+        import scenes
+
+        meshes = list(scenes.build_meshes(scene))
+        names = [str(m.metadata.get("name") or f"{scene.name}[{i}]") for i, m in enumerate(meshes)]
+        lt = scene.light
+        light = (tuple(lt.direction), float(lt.intensity), float(lt.ambient))
+        background = tuple(float(c) for c in scene.background)
+        meta = {"scene": scene.name, "seed": scene.seed}
+    elif isinstance(scene, Sequence) and not isinstance(scene, (str, bytes)):
+        meshes = list(scene)
+        names = [str(m.metadata.get("name", f"mesh[{i}]")) if isinstance(m, trimesh.Trimesh) else ""
+                 for i, m in enumerate(meshes)]
+        light, background, meta = DEFAULT_LIGHT, (0.0, 0.0, 0.0), {"scene": "meshes", "seed": None}
+    else:
+        raise TypeError(
+            f"scene must be a scenes.SceneSpec or a sequence of trimesh.Trimesh, got "
+            f"{type(scene).__name__}; build one with scenes.get_preset(name)"
+        )
+    if not meshes:
+        raise ValueError("the scene has no meshes; add at least one object")
+    if len(background) != 3:
+        raise ValueError(f"scene background must be 3 values in 0..1, got {background}")
+    out = []
+    lx = np.asarray(light[0], dtype=np.float64)
+    if lx.shape != (3,) or not np.all(np.isfinite(lx)) or not np.any(lx):
+        raise ValueError(f"light direction must be a finite non-zero 3-vector, got {light[0]}")
+    to_light = -lx / np.linalg.norm(lx)
+    for i, (m, name) in enumerate(zip(meshes, names)):
+        if not isinstance(m, trimesh.Trimesh):
+            raise TypeError(f"mesh {i} must be a trimesh.Trimesh, got {type(m).__name__}")
+        out.append(prepare_mesh(m, name, to_light, light[1], light[2]))
+    return out, background, meta
+
+
+def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity: float,
+                  ambient: float) -> Mesh:
+    v = np.asarray(m.vertices, dtype=np.float64)
+    f = np.asarray(m.faces)
+    if len(f) == 0 or len(v) == 0:
+        raise ValueError(
+            f"object {name!r} has no triangles; drop it from the scene or give it faces")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"object {name!r} has non-finite vertex coordinates; fix its geometry")
+    # View-independent Lambert. Open surfaces (metadata "double_sided", the default for
+    # bare meshes: planes, a Moebius strip) have their normals turned toward the left
+    # camera (the origin) so they are lit on the side we see; closed ones keep theirs.
+    n = np.asarray(m.vertex_normals, dtype=np.float64)
+    if m.metadata.get("double_sided", True):
+        n = np.where((np.einsum("ij,ij->i", n, -v) < 0)[:, None], -n, n)
+    shade = ambient + intensity * np.clip(n @ to_light, 0.0, None)
+    # Textures hold display-encoded values: scale them by the encoded shading factor.
+    mult = np.clip(shade, 0.0, None) ** (1.0 / DISPLAY_GAMMA)
+    color = np.repeat(mult[:, None], 3, axis=1)
+    visual = m.visual
+    uv = image = None
+    if getattr(visual, "kind", None) == "texture":
+        mat = visual.material
+        image = getattr(mat, "image", None) or getattr(mat, "baseColorTexture", None)
+        if visual.uv is not None and image is not None:
+            uv = np.asarray(visual.uv, dtype=np.float64)
+            array = m.metadata.get("texture_rgb")  # scenes' meshes carry the material's pixels
+            if (isinstance(array, np.ndarray) and array.dtype == np.uint8 and array.ndim == 3
+                    and array.shape[1::-1] == tuple(getattr(image, "size", ()))):
+                image = np.ascontiguousarray(array)
+            else:
+                image = texture_array(image)
+        else:
+            image = None
+            main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)
+            color *= main[:3] / 255.0
+    elif getattr(visual, "kind", None) in ("vertex", "face"):
+        color *= np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
+    vertices = np.zeros((len(v), 8), dtype=np.float32)
+    vertices[:, :3] = v
+    if uv is not None:
+        # UVs follow OpenGL (v = 1 is image row 0); images are uploaded row 0 first (t = 0)
+        vertices[:, 3] = uv[:, 0]
+        vertices[:, 4] = 1.0 - uv[:, 1]
+    vertices[:, 5:] = color
+    return Mesh(
+        name=name,
+        vertices=vertices,
+        faces=np.ascontiguousarray(f, dtype=np.uint32),
+        image=image,
+        closed=not m.metadata.get("double_sided", True),
+        zmin=float(v[:, 2].min()),
+        zmax=float(v[:, 2].max()),
+    )
+
+
+def texture_array(image: Any) -> np.ndarray:
+    """A texture (PIL image or array) as a C-contiguous (h, w, 3 or 4) uint8 array."""
+    if hasattr(image, "mode") and hasattr(image, "convert"):  # a PIL image
+        if image.mode not in ("RGB", "RGBA"):
+            image = image.convert("RGB")
+    arr = np.asarray(image)
+    if arr.ndim == 2:
+        arr = np.repeat(arr[:, :, None], 3, axis=2)
+    if arr.ndim != 3 or arr.shape[2] not in (3, 4) or arr.dtype != np.uint8:
+        raise ValueError(f"texture images must be (h, w, 3) uint8 RGB, got {arr.shape} "
+                         f"{arr.dtype}; convert the image to 8-bit RGB")
+    return np.ascontiguousarray(arr)
+
+
+def check_depth_range(meshes: Sequence[Mesh], rig: StereoRig) -> None:
+    for m in meshes:
+        if m.zmin <= 0:
+            raise ValueError(
+                f"object {m.name!r} reaches z={m.zmin:.4g} <= 0, behind the left camera "
+                f"(world frame = left camera, z forward); move it in front (z > near={rig.near})"
+            )
+        if m.zmin < rig.near or m.zmax > rig.far:
+            raise ValueError(
+                f"object {m.name!r} spans z in [{m.zmin:.4g}, {m.zmax:.4g}], outside the rig's "
+                f"[near, far] = [{rig.near}, {rig.far}]; move the object or change the rig's "
+                "near/far"
+            )
