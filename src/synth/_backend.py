@@ -8,13 +8,12 @@ first import; Mesa's llvmpipe reads ``LP_NUM_THREADS`` once, at the first contex
 from __future__ import annotations
 
 import functools
+import numbers
 import os
 import subprocess
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-
-import numpy as np
 
 __all__ = ["BACKENDS", "DEBIAN_FIX", "GLBackendError", "check_backend_name", "check_threads",
            "choose_backend", "driver_threads", "refuse_late_threads", "resolve_backend"]
@@ -26,18 +25,20 @@ DEBIAN_FIX = {
     "osmesa": "apt-get install libosmesa6",
 }
 
+
 class GLBackendError(RuntimeError):
     """No OpenGL backend could be started (the message names each one tried and the fix)."""
 
+
 _PROBE = """
-import os, sys
+import sys
+from synth.render import _platform_module
 b = sys.argv[1]
+platforms = _platform_module(b)
 if b == "egl":
-    from pyrender.platforms.egl import EGLPlatform, get_device_by_index
-    p = EGLPlatform(8, 8, device=get_device_by_index(0))
+    p = platforms.EGLPlatform(8, 8, device=platforms.get_device_by_index(0))
 else:
-    from pyrender.platforms.osmesa import OSMesaPlatform
-    p = OSMesaPlatform(8, 8)
+    p = platforms.OSMesaPlatform(8, 8)
 p.init_context()
 p.make_current()
 from OpenGL import GL
@@ -138,7 +139,7 @@ DRIVER_THREADS: dict[str, str | None] = {}
 def check_threads(threads: int | None) -> None:
     if threads is None:
         return
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 0:
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 0:
         raise ValueError(
             f"threads must be None (llvmpipe's default: one per core) or an int >= 0 "
             f"(0: rasterize in the calling thread), got {threads!r}"

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -410,6 +411,31 @@ class _Passes:
         return out[::-1].copy()  # GL rows run bottom-up
 
 
+def _platform_module(backend: str) -> Any:
+    """pyrender's ``platforms.egl`` or ``platforms.osmesa`` module (context creation only).
+
+    Loaded without running ``pyrender/__init__.py``, which imports trimesh, scipy, networkx and
+    pyglet (~1 s, per worker and per backend probe) for the scene graph we do not use: the
+    platform modules need only PyOpenGL and six. They are loaded under a private package name
+    so that a later ``import pyrender`` still gets the real package; if pyrender is already
+    imported, its own modules are used.
+    """
+    import importlib
+    import importlib.util
+    import types
+
+    name = "pyrender" if "pyrender" in sys.modules else "_stereoforge_pyrender"
+    if name not in sys.modules:
+        spec = importlib.util.find_spec("pyrender")
+        if spec is None or not spec.submodule_search_locations:
+            raise ImportError("pyrender is not installed; install stereoforge's dependencies "
+                              "(pip install pyrender --no-deps, see the Makefile)")
+        package = types.ModuleType(name, "pyrender's package path only (platform modules)")
+        package.__path__ = list(spec.submodule_search_locations)
+        sys.modules[name] = package
+    return importlib.import_module(f"{name}.platforms.{backend}")
+
+
 # ---------------------------------------------------------------------------- Renderer
 class Renderer:
     """An offscreen OpenGL context that renders views with exact depth.
@@ -493,13 +519,11 @@ class Renderer:
         self._closed = False
 
     def _make_platform(self) -> Any:
+        platforms = _platform_module(self.backend)
         if self.backend == "egl":
-            from pyrender.platforms.egl import EGLPlatform, get_device_by_index
-
-            return EGLPlatform(self.width, self.height, device=get_device_by_index(0))
-        from pyrender.platforms.osmesa import OSMesaPlatform
-
-        return OSMesaPlatform(self.width, self.height)
+            return platforms.EGLPlatform(self.width, self.height,
+                                         device=platforms.get_device_by_index(0))
+        return platforms.OSMesaPlatform(self.width, self.height)
 
     # -------------------------------------------------------------- lifetime
     def __enter__(self) -> Renderer:
