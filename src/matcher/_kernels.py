@@ -17,7 +17,6 @@ its core would otherwise hold up half of the rows; with the counter the other wo
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numba import njit, prange, types
 from numba.core import cgutils

@@ -9,7 +9,6 @@ import functools
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
@@ -22,7 +21,6 @@ from synth.io.middlebury import write_middlebury
 from synth.io.png import encode_png
 from synth.pair import StereoPair
 from synth.preview import preview_image
-from synth.rig import StereoRig
 
 __all__ = ["FORMATS", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for", "write_pair"]
 

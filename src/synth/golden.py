@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from matcher import match
-from matcher.io import encode_pfm, load_middlebury_2014, read_image, read_pfm
+from matcher.io import encode_pfm, load_middlebury_2014, read_pfm
 from matcher.metrics import evaluate
 from synth.io._atomic import atomic_write_bytes
 from synth.rig import StereoRig

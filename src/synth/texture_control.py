@@ -28,7 +28,7 @@ from typing import Any, Callable
 import numpy as np
 
 from matcher.edges import CANNY_HIGH, CANNY_LOW, CANNY_SIGMA, canny_edges
-from scenes import ObjectSpec, SceneSpec, TextureSpec
+from scenes import SceneSpec
 
 __all__ = [
     "CANNY_SETTINGS",
