@@ -15,7 +15,6 @@ Three measurements, all returning table rows (print them with :func:`synth.bench
 from __future__ import annotations
 
 import os
-import resource
 import tempfile
 import time
 from collections.abc import Sequence
@@ -31,6 +30,7 @@ class _Stamped:
     def __init__(self, task: Any) -> None:
         self.task = task
         self.width, self.height, self.backend = task.width, task.height, task.backend
+        self.preload = (type(task).__module__, *getattr(task, "preload", ()))
 
     def __call__(self, index: int, renderer: Any) -> dict:
         self.task(index, renderer)
@@ -48,10 +48,19 @@ def _steady_cpu_per_pair(stamps: Sequence[dict]) -> float:
 
 
 def _cpu_seconds() -> float:
-    """CPU time of this process and its reaped children (worker processes), all threads."""
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+    """CPU time of this process and its descendants, all threads: the live ones (the engine's
+    fork server, its workers) and those reaped by this process or by a live descendant."""
+    import psutil
+
+    me = psutil.Process()
+    total = 0.0
+    for proc in (me, *me.children(recursive=True)):
+        try:
+            t = proc.cpu_times()
+        except psutil.NoSuchProcess:  # exited meanwhile: counted by whoever reaps it
+            continue
+        total += t.user + t.system + t.children_user + t.children_system
+    return total
 
 
 def bench_dataset(
@@ -81,12 +90,17 @@ def bench_dataset(
         ``config, size, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
         included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
         without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
-        ``pairs_per_cpu_s`` (pairs per CPU second of this process and its workers, all
-        threads: robust to other load on the machine), ``steady_cpu_ms_per_pair`` (CPU time
+        ``pairs_per_cpu_s`` (pairs per CPU second of this process and its descendants, all
+        threads: workers, the engine's fork server, the GL probe; robust to other load on the
+        machine), ``steady_cpu_ms_per_pair`` (CPU time
         of the workers, all threads, per pair at steady state: what the run costs without
         start-up, whatever else loads the machine; ``1000 * cores / steady_cpu_ms_per_pair``
         bounds the steady rate of an idle machine) and ``efficiency`` (steady rate over
         ``workers / workers[0]`` times the first one's).
+
+    The first multi-worker run of a process also starts the engine's fork server (imports and
+    numba set-up, ~1.5 s, see :mod:`synth.engine`) and probes the GL backend; later runs (the
+    next configurations) reuse both, so their ``startup_s`` is smaller.
     """
     from synth.config import load_config
     from synth.dataset import _SampleTask

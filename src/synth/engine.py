@@ -6,13 +6,22 @@ indices and yields ``(index, result)`` as samples finish (in completion order; c
 order sort). Engines:
 
 - ``"local"``: ``workers == 1`` runs in this process; more workers are a
-  :class:`concurrent.futures.ProcessPoolExecutor` with the ``spawn`` start method (never
-  ``fork``: a forked GL context is unusable), each process opening one :class:`Renderer` in its
-  initializer and reusing it. With more workers than cores / 2, each worker's llvmpipe gets
-  ``LP_NUM_THREADS = cores // workers`` threads (unless the variable is set) and OpenCV as
-  many, which avoids oversubscription and does not change the images. Worker processes (and
-  Ray actors) also tune glibc's ``malloc`` to reuse freed memory (see :func:`_tune_malloc`):
-  ~15 % less CPU per 640 x 480 pair.
+  :class:`concurrent.futures.ProcessPoolExecutor` whose processes are forked by a
+  ``forkserver`` (``spawn`` where there is none). The fork server is a fresh process that
+  imports the task's modules (``type(task).__module__`` and the task's optional ``preload``
+  tuple of module names) and warms numba once (:mod:`synth._worker_warm`); it never imports
+  OpenGL, so no GL state is ever forked (a forked GL context is unusable), and each worker
+  starts without importing numpy/scipy/trimesh/numba/OpenCV again. It is one per process
+  (``multiprocessing``'s), started by the first multi-worker run and reused by the next ones;
+  it inherits the environment of that moment. The GL backend is probed (in a subprocess, so
+  OpenGL stays unimported here) while the workers start; each worker opens one
+  :class:`Renderer` at its first task and reuses it. With more workers than cores / 2, each
+  worker's llvmpipe gets ``cores // workers`` rasterizer threads (``0``, i.e. the calling
+  thread, for one core per worker; an ``LP_NUM_THREADS`` in the environment wins) and OpenCV
+  and numba as many threads, which avoids oversubscription (numba's OpenMP threads would
+  spin) and does not change the outputs. Worker processes (and Ray actors) also tune glibc's
+  ``malloc`` to reuse freed memory (see :func:`_tune_malloc`): ~15 % less CPU per 640 x 480
+  pair.
 - ``"ray"``: ``workers`` Ray actors (one renderer each), on the cluster at ``address`` or on a
   local Ray started with ``num_cpus=workers`` (and shut down after). Needs ``pip install ray``.
 
@@ -26,7 +35,12 @@ import multiprocessing
 import os
 import sys
 from collections.abc import Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import (
+    FIRST_COMPLETED,
+    ProcessPoolExecutor,
+    ThreadPoolExecutor,
+    wait,
+)
 from typing import Any, Protocol
 
 __all__ = ["ENGINES", "Task", "run_tasks", "ray_available"]
@@ -35,7 +49,11 @@ ENGINES = ("local", "ray")
 
 
 class Task(Protocol):
-    """What :func:`run_tasks` runs (see the module docstring)."""
+    """What :func:`run_tasks` runs (see the module docstring).
+
+    It may also have a ``preload`` attribute: a tuple of module names (free of GL) that worker
+    processes need, imported once by the fork server.
+    """
 
     width: int
     height: int
@@ -81,6 +99,7 @@ def _tune_malloc() -> None:
 
 # --------------------------------------------------------------------------- local engine
 _WORKER: dict[str, Any] = {}
+_WARM_MODULE = "synth._worker_warm"
 
 
 def _threads_per_worker(workers: int) -> int | None:
@@ -88,22 +107,53 @@ def _threads_per_worker(workers: int) -> int | None:
     return max(1, cores // workers) if workers > 1 else None
 
 
-def _init_worker(task: Task, lp_threads: int | None, backend: str) -> None:
-    if lp_threads is not None:
-        os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
+def _preload(task: Task) -> list[str]:
+    """Modules the fork server imports once for every worker it forks (none of them GL)."""
+    return [__name__, type(task).__module__, *getattr(task, "preload", ()), _WARM_MODULE]
+
+
+def _mp_context(task: Task) -> multiprocessing.context.BaseContext:
+    """``forkserver`` preloading the task's modules where available, else ``spawn``."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():  # pragma: no cover
+        return multiprocessing.get_context("spawn")
+    ctx = multiprocessing.get_context("forkserver")
+    # the server is one per process, started at its first use: later preload lists are ignored
+    ctx.set_forkserver_preload(_preload(task))
+    return ctx
+
+
+def _init_worker(task: Task, threads: int | None) -> None:
+    """Worker set-up that needs no GL: thread counts, malloc; the renderer opens on first use."""
+    if threads is not None:
         import cv2  # its thread pool too: workers already share the cores
+        import numba
 
-        cv2.setNumThreads(lp_threads)
+        cv2.setNumThreads(threads)
+        # numba's parallel kernels (Canny): one OpenMP thread per worker; more only spin
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     _tune_malloc()
-    from synth.render import Renderer
-
-    _WORKER["task"] = task
-    # the parent resolved the backend on this machine: no second probe per worker
-    _WORKER["renderer"] = Renderer(task.width, task.height, backend=backend, probe=False)
+    _WORKER["task"], _WORKER["threads"] = task, threads
 
 
-def _run_in_worker(index: int) -> tuple[int, dict]:
-    return index, _WORKER["task"](index, _WORKER["renderer"])
+def _ready() -> None:
+    """No-op task: submitting one per worker starts the processes early."""
+
+
+def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
+    renderer = _WORKER.get("renderer")
+    if renderer is None:
+        from synth.render import Renderer
+
+        task, threads = _WORKER["task"], _WORKER["threads"]
+        # the parent resolved the backend on this machine: no second probe per worker; one
+        # core per worker rasterizes in the calling thread (least CPU per image)
+        if threads is not None and "LP_NUM_THREADS" not in os.environ:
+            threads = 0 if threads == 1 else threads
+        else:
+            threads = None
+        renderer = _WORKER["renderer"] = Renderer(task.width, task.height, backend=backend,
+                                                  probe=False, threads=threads)
+    return index, _WORKER["task"](index, renderer)
 
 
 def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tuple[int, dict]]:
@@ -116,17 +166,23 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
         return
     from synth.render import resolve_backend
 
-    backend = resolve_backend(task.backend)  # probes in a subprocess; OpenGL stays unimported
-    ctx = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
-                               initargs=(task, _threads_per_worker(workers), backend))
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=_mp_context(task),
+                               initializer=_init_worker,
+                               initargs=(task, _threads_per_worker(workers)))
+    probe = ThreadPoolExecutor(max_workers=1)
     try:
-        pending = {pool.submit(_run_in_worker, i) for i in indices}
+        # the probe (a subprocess; OpenGL stays unimported here) runs while the workers start
+        backend_future = probe.submit(resolve_backend, task.backend)
+        for _ in range(workers):
+            pool.submit(_ready)
+        backend = backend_future.result()
+        pending = {pool.submit(_run_in_worker, i, backend) for i in indices}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in sorted(done, key=lambda f: f.exception() is not None):
                 yield fut.result()  # raises the task's exception
     finally:
+        probe.shutdown(wait=True, cancel_futures=True)
         pool.shutdown(wait=True, cancel_futures=True)
 
 

@@ -29,6 +29,7 @@ from typing import Any, Mapping, NamedTuple
 
 import cv2
 import numpy as np
+from numba import njit
 
 __all__ = ["PhotometricParams", "PhotometricPair", "apply_photometric", "gaussian_noise"]
 
@@ -168,7 +169,16 @@ def gaussian_noise(shape: tuple[int, ...], sigma: float, *,
     words = rng.bit_generator.random_raw((size + 3) // 4)
     index = words.astype("<u8", copy=False).view("<u2")[:size]
     table = (_normal_quantiles() * float(sigma)).astype(np.float32)
-    return table.take(index).reshape(shape)
+    out = np.empty(size, np.float32)
+    _gather(table, index, out)  # = table.take(index), without its int64 copy of the index
+    return out.reshape(shape)
+
+
+@njit(cache=True, nogil=True)
+def _gather(table: np.ndarray, index: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    """``out[i] = table[index[i]]``; ``index`` (uint16) is always within ``table`` (2**16)."""
+    for i in range(index.shape[0]):
+        out[i] = table[index[i]]
 
 
 def _blur(img: np.ndarray, sigma: float) -> np.ndarray:

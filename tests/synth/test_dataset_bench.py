@@ -3,10 +3,17 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import pytest
 
-from synth.bench_dataset import _steady_cpu_per_pair, bench_dataset, profile_dataset
+from synth.bench_dataset import (
+    _cpu_seconds,
+    _steady_cpu_per_pair,
+    bench_dataset,
+    profile_dataset,
+)
 
 TINY = """\
 name = "tiny"
@@ -27,6 +34,32 @@ def test_steady_cpu_counts_each_worker_from_its_first_completion():
     # worker 1: 1.0 s for 2 pairs, worker 2: 0.2 s for 1 pair
     assert _steady_cpu_per_pair(stamps) == pytest.approx(1.2 / 3)
     assert math.isnan(_steady_cpu_per_pair([{"pid": 1, "cpu": 3.0}]))
+
+
+_BUSY = """
+import sys, time
+from multiprocessing import Process
+def burn():
+    while time.process_time() < 0.3:
+        pass
+if __name__ == "__main__":
+    p = Process(target=burn)  # a grandchild, as the workers forked by the engine's fork server
+    p.start(); p.join()
+    burn()
+    print(time.process_time(), flush=True)
+    sys.stdin.read()
+"""
+
+
+def test_cpu_counts_live_children_and_what_they_reaped():
+    before = _cpu_seconds()
+    child = subprocess.Popen([sys.executable, "-c", _BUSY], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, text=True)
+    try:
+        own = float(child.stdout.readline())  # the child's CPU; its reaped grandchild: 0.3 s
+        assert _cpu_seconds() - before >= own + 0.3 - 0.05  # clock ticks of 10 ms
+    finally:
+        child.communicate("")
 
 
 @pytest.mark.gl

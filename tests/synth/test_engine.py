@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -16,6 +17,19 @@ class _Square:
 
     def __call__(self, index, renderer):
         return {"square": index * index, "backend": renderer.backend}
+
+
+class _Threads:
+    width, height, backend = 16, 16, "auto"
+
+    def __call__(self, index, renderer):
+        import os
+
+        import cv2
+        import numba
+
+        return {"square": index * index, "backend": renderer.backend, "pid": os.getpid(),
+                "numba": numba.get_num_threads(), "cv2": cv2.getNumThreads()}
 
 
 class _Fails:
@@ -49,6 +63,50 @@ def test_local_engine_stops_at_the_first_failure(renderer):
         for index, _ in run_tasks(_Fails(), [0, 1, 2, 3], workers=1):
             seen.append(index)
     assert seen == [0, 1]
+
+
+@pytest.mark.gl
+def test_two_workers_run_every_index_once_with_their_share_of_threads(renderer):
+    out = dict(run_tasks(_Threads(), [4, 0, 3, 1, 2], workers=2))
+    assert {i: r["square"] for i, r in out.items()} == {0: 0, 1: 1, 2: 4, 3: 9, 4: 16}
+    assert {r["backend"] for r in out.values()} == {renderer.backend}
+    share = max(1, (os.cpu_count() or 1) // 2)  # OpenCV and numba: cores // workers each
+    assert {(r["numba"], r["cv2"]) for r in out.values()} == {(share, share)}
+    assert len({r["pid"] for r in out.values()}) <= 2
+
+
+@pytest.mark.gl
+def test_two_workers_stop_at_the_first_failure(renderer):
+    with pytest.raises(RuntimeError, match="sample 2 is broken"):
+        list(run_tasks(_Fails(), [0, 1, 2, 3], workers=2))
+
+
+_PRELOAD = """
+import os, sys, threading
+import cv2, numpy, scipy.linalg  # their BLAS thread pools start at import (fork-aware)
+libraries = len(os.listdir("/proc/self/task"))
+from synth.config import load_config
+from synth.dataset import _SampleTask
+from synth.engine import _preload
+modules = _preload(_SampleTask(load_config("planes"), "/nonexistent", "middlebury", "auto"))
+for name in modules:
+    __import__(name)
+print(sorted(modules))
+print([m for m in sys.modules if m.split(".")[0] in ("OpenGL", "pyrender")])
+print(threading.active_count(), len(os.listdir("/proc/self/task")) - libraries)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/task: Linux")
+def test_the_fork_server_preload_opens_no_gl_and_starts_no_thread():
+    out = subprocess.run([sys.executable, "-c", _PRELOAD], capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    assert out[0] == str(sorted(["synth.engine", "synth.dataset", "synth.pair",
+                                 "synth._worker_warm"]))
+    assert out[1] == "[]"  # nothing GL: a forked GL state would be unusable
+    # one Python thread, and no OS thread beyond numpy's, SciPy's and OpenCV's BLAS pools
+    # (which re-initialise after a fork): numba's OpenMP pool is never started there
+    assert out[2] == "1 0"
 
 
 _FAULTS = """

@@ -142,6 +142,23 @@ def test_gaussian_noise_example_values():
     assert abs(np.mean(q * q) - 1.0) < 1e-12 and (np.diff(q) > 0).all()
 
 
+def _noise_by_take(shape, sigma, seed):
+    """The definition: 16-bit words of the bit generator index the scaled quantile table."""
+    size = int(np.prod(shape))
+    words = np.random.default_rng(seed).bit_generator.random_raw((size + 3) // 4)
+    index = words.astype("<u8").view("<u2")[:size]
+    return (_normal_quantiles() * sigma).astype(np.float32).take(index).reshape(shape)
+
+
+def test_gaussian_noise_is_the_table_lookup_of_its_16_bit_words():
+    # Property companion: test_gaussian_noise_equals_the_table_lookup (an odd size leaves
+    # part of the last word unused; the shape is restored after the lookup)
+    for shape, sigma, seed in (((3, 5, 3), 1.7, 9), ((1,), 64.0, 0), ((2, 7), 0.25, 123)):
+        x = gaussian_noise(shape, sigma, rng=seed)
+        assert x.dtype == np.float32 and x.shape == shape
+        np.testing.assert_array_equal(x, _noise_by_take(shape, sigma, seed))
+
+
 def test_gaussian_noise_validates_sigma():
     with pytest.raises(ValueError, match="sigma must be a finite number >= 0"):
         gaussian_noise((2, 2), -1.0, rng=0)

@@ -7,7 +7,12 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from synth.photometric import PhotometricParams, apply_photometric, gaussian_noise
+from synth.photometric import (
+    PhotometricParams,
+    _normal_quantiles,
+    apply_photometric,
+    gaussian_noise,
+)
 
 images = arrays(np.uint8, st.tuples(st.integers(2, 24), st.integers(2, 24), st.just(3)))
 params = st.builds(
@@ -73,3 +78,15 @@ def test_gaussian_noise_has_the_requested_sigma(sigma, seed):
 def test_gaussian_noise_sigma_example():
     x = gaussian_noise((64, 64), 3.0, rng=0).astype(np.float64)
     assert 2.85 < x.std() < 3.15
+
+
+@given(st.lists(st.integers(1, 9), min_size=1, max_size=3), st.floats(0.0, 64.0),
+       st.integers(0, 2**32))
+def test_gaussian_noise_equals_the_table_lookup(shape, sigma, seed):
+    # hand-picked companion: test_gaussian_noise_is_the_table_lookup_of_its_16_bit_words
+    shape = tuple(shape)
+    size = int(np.prod(shape))
+    words = np.random.default_rng(seed).bit_generator.random_raw((size + 3) // 4)
+    index = words.astype("<u8").view("<u2")[:size]
+    expected = (_normal_quantiles() * sigma).astype(np.float32).take(index).reshape(shape)
+    np.testing.assert_array_equal(gaussian_noise(shape, sigma, rng=seed), expected)
