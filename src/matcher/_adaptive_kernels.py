@@ -1,4 +1,5 @@
-"""Numba kernels of CTHW and AWCT/AWSCT. They trust their input: validate at the public boundary.
+"""Numba kernels of AWCT/AWSCT (and CTHW's Haar sums; the rest of CTHW is in
+:mod:`matcher._cthw_kernels`). They trust their input: validate at the public boundary.
 
 Census codes use the word-planar layout ``(H, n_words, W)`` uint64 of :mod:`matcher._kernels`
 (contiguous inner loops over ``x``).
@@ -9,18 +10,20 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from matcher._cthw_kernels import _haar_row
 from matcher._kernels import _census_row, _row_cost, _select_row, fetch_add, popcount64
 
 __all__ = [
     "adaptive_wta_kernel",
-    "disparity_to_int",
-    "haar_sums_kernel",
-    "upsample2_kernel",
-    "right_window_map",
-    "path_mode_kernel",
     "edge_integral",
+    "haar_sums_kernel",
+    "right_window_map",
     "select_windows_kernel",
 ]
+
+
+#: Largest window side whose window selection runs on int32 (``side**4 < 2**31``).
+_NARROW_SIDE = 215
 
 
 @njit(cache=True)
@@ -59,15 +62,18 @@ def _window_row(integral, pad, sizes, n_decreases, y, prev, run, chosen, out):  
     """Window sides of image row ``y`` into ``out`` (W,) uint8 (see :func:`select_windows_kernel`).
 
     integral : clamped summed-area table from :func:`_integral` with ``pad``; prev, run,
-    chosen : (W,) int64 scratch.
+    chosen : (W,) scratch of one integer dtype, which also holds the products ``count *
+    area`` of the comparisons: int32 (twice the vector width) needs ``largest**4 < 2**31``,
+    i.e. a largest side of at most :data:`_NARROW_SIDE`; int64 always works.
     """
+    T = prev.dtype.type
     W = out.shape[0]
     K = sizes.shape[0]
-    largest = sizes[K - 1]
+    largest = T(sizes[K - 1])
     for x in range(W):
         run[x] = 0
         chosen[x] = largest
-    prev_area = np.int64(1)
+    prev_area = T(1)
     for k in range(K):
         s = sizes[k]
         r = s // 2
@@ -75,17 +81,18 @@ def _window_row(integral, pad, sizes, n_decreases, y, prev, run, chosen, out):  
         bot = integral[pad + y + r + 1, pad - r : pad - r + W]
         top1 = integral[pad + y - r, pad + r + 1 : pad + r + 1 + W]
         bot1 = integral[pad + y + r + 1, pad + r + 1 : pad + r + 1 + W]
-        area = np.int64(s) * np.int64(s)
+        area = T(s * s)
+        side = T(s)
         if k == 0:
             for x in range(W):
-                prev[x] = np.int64(bot1[x] - top1[x] - bot[x] + top[x])
+                prev[x] = T(bot1[x] - top1[x] - bot[x] + top[x])
         else:
             for x in range(W):
-                c = np.int64(bot1[x] - top1[x] - bot[x] + top[x])
-                rn = run[x] + 1 if c * prev_area < prev[x] * area else np.int64(0)
+                c = T(bot1[x] - top1[x] - bot[x] + top[x])
+                rn = T(run[x] + 1) if T(c * prev_area) < T(prev[x] * area) else T(0)
                 run[x] = rn
-                if rn == n_decreases and chosen[x] == largest:
-                    chosen[x] = s
+                ch = chosen[x]
+                chosen[x] = side if (rn == n_decreases) & (ch == largest) else ch
                 prev[x] = c
         prev_area = area
     for x in range(W):
@@ -119,15 +126,18 @@ def select_windows_kernel(edges, sizes, n_decreases, n_threads, counter, out):  
     """
     H, W = edges.shape
     integral, pad = edge_integral(edges, sizes[sizes.shape[0] - 1])
+    narrow = sizes[sizes.shape[0] - 1] <= _NARROW_SIDE
     for _t in prange(n_threads):
-        prev = np.empty(W, np.int64)
-        run = np.empty(W, np.int64)
-        chosen = np.empty(W, np.int64)
+        s32 = np.empty((3, W), np.int32)
+        s64 = np.empty((3, W), np.int64)
         while True:
             y = fetch_add(counter, 1)
             if y >= H:
                 break
-            _window_row(integral, pad, sizes, n_decreases, y, prev, run, chosen, out[y])
+            if narrow:
+                _window_row(integral, pad, sizes, n_decreases, y, s32[0], s32[1], s32[2], out[y])
+            else:
+                _window_row(integral, pad, sizes, n_decreases, y, s64[0], s64[1], s64[2], out[y])
 
 
 @njit(cache=True)
@@ -191,6 +201,86 @@ def _prefix_masks(bits, masks):  # pragma: no cover - compiled
                 m[x] = np.uint64(0)
 
 
+@njit(cache=True, inline="always")
+def _rescore(cl, cr, x, k, b, acc):  # pragma: no cover - compiled
+    """WTA disparity of left pixel ``x`` over its own first ``b`` bits (``0 < b``).
+
+    cl, cr : (nw, W) codes of the row; candidates ``d = 0 .. k - 1`` are the right pixels
+    ``q = x - d``, a contiguous run ``[x - k + 1, x]`` (vectorised over it). acc : (>= k,)
+    int32 scratch, the candidates' costs in run order ``j = k - 1 - d``. Whole words are
+    compared as they are and only the last, partial word is masked. The winner is one
+    vectorised minimum of the keys ``cost << sh | (2**sh - 1 - j)`` (``2**sh >= k``): the least
+    cost and, among equal costs, the largest ``j``, i.e. the smallest ``d``
+    (:func:`_last_argmin_keys`; int32 keys, narrow vectors); if the keys could overflow, a
+    minimum and a search instead (:func:`_last_argmin_search`).
+    """
+    lo = x - k + 1
+    full = b >> 6
+    rem = b & 63
+    a = acc[:k]
+    for j in range(k):
+        a[j] = 0
+    # slices, not 2-D indexing: with a run-time k, these loops vectorise far better
+    for wi in range(full):
+        lw = cl[wi, x]
+        rr = cr[wi, lo : x + 1]
+        for j in range(k):
+            a[j] += np.int32(popcount64(lw ^ rr[j]))
+    if rem:
+        m = (np.uint64(1) << np.uint64(rem)) - np.uint64(1)
+        lw = cl[full, x] & m
+        rr = cr[full, lo : x + 1]
+        for j in range(k):
+            a[j] += np.int32(popcount64((lw ^ rr[j]) & m))
+    if _keys_fit(b, k):
+        return k - 1 - _last_argmin_keys(acc, k)
+    return k - 1 - _last_argmin_search(acc, k)
+
+
+@njit(cache=True, inline="always")
+def _key_shift(k):  # pragma: no cover - compiled
+    """The least ``sh`` with ``2**sh >= k``."""
+    sh = 0
+    while (1 << sh) < k:
+        sh += 1
+    return sh
+
+
+@njit(cache=True, inline="always")
+def _keys_fit(max_cost, k):  # pragma: no cover - compiled
+    """Whether the int32 keys of :func:`_last_argmin_keys` hold costs up to ``max_cost``."""
+    sh = _key_shift(k)
+    return (np.int64(max_cost) << sh) + (1 << sh) < 2**31
+
+
+@njit(cache=True, inline="always")
+def _last_argmin_keys(acc, k):  # pragma: no cover - compiled
+    """The largest ``j < k`` with ``acc[j] == min(acc[:k])``; acc : int32, ``>= 0``.
+
+    One vectorised minimum of the keys ``acc[j] << sh | (2**sh - 1 - j)`` (``2**sh >= k``),
+    which must fit in int32 (:func:`_keys_fit`).
+    """
+    sh = _key_shift(k)
+    low = np.int32((1 << sh) - 1)
+    ish = np.int32(sh)
+    best = np.int32(0x7FFFFFFF)
+    for j in range(k):
+        best = min(best, (acc[j] << ish) | (low - np.int32(j)))
+    return np.int64(low - (best & low))
+
+
+@njit(cache=True, inline="always")
+def _last_argmin_search(acc, k):  # pragma: no cover - compiled
+    """:func:`_last_argmin_keys` for any costs: a minimum, then a search from the end."""
+    best = acc[0]
+    for j in range(1, k):
+        best = min(best, acc[j])
+    j = k - 1
+    while acc[j] != best:
+        j -= 1
+    return np.int64(j)
+
+
 @njit(cache=True)
 def _adaptive_row(
     cl3, cr3, bits_l, bits_r, n_disp, total_bits, left_only, bufs, out, totals
@@ -207,7 +297,7 @@ def _adaptive_row(
     does) the row gets plain costs and WTA, and only the left pixels with a smaller window
     (few, since edges are sparse) are scored again over their own prefix.
     """
-    raw, ml, mr, bestc, bestd, bestcr, bestdr = bufs
+    raw, ml, mr, bestc, bestd, bestcr, bestdr, keys = bufs
     cl = cl3[0]
     cr = cr3[0]
     nw, W = cl.shape
@@ -228,8 +318,6 @@ def _adaptive_row(
         # q = x - d (vectorised), and its WTA result replaces the plain one
         _row_cost(cl3, cr3, 0, D, cost)
         _select_row(cost[:D], -1, False, bestc, bestd, bestcr, bestdr, out)
-        own = bestcr  # (W,) uint32 scratch: the costs of one pixel's candidates
-        one = np.uint64(1)
         tb = np.int64(0)
         tw = np.int64(0)
         for x in range(W):
@@ -237,28 +325,8 @@ def _adaptive_row(
             k = min(D, x + 1)  # candidates of left pixel x
             tb += b * k
             tw += ((b + 63) >> 6) * k
-            if b >= total_bits:
-                continue
-            lo = x - k + 1
-            oc = own[:k]
-            for j in range(k):
-                oc[j] = 0
-            for wi in range(nw):
-                rem = b - 64 * wi
-                if rem <= 0:
-                    break
-                m = ~np.uint64(0) if rem >= 64 else (one << np.uint64(rem)) - one
-                lw = cl[wi, x] & m
-                rr = cr[wi, lo : x + 1]
-                for j in range(k):
-                    oc[j] += np.uint32(popcount64((lw ^ rr[j]) & m))
-            best = oc[0]
-            for j in range(1, k):
-                best = min(best, oc[j])
-            j = k - 1  # the smallest d = x - q with the least cost: the largest such j
-            while oc[j] != best:
-                j -= 1
-            out[x] = np.float32(k - 1 - j)
+            if b < total_bits:
+                out[x] = np.float32(_rescore(cl, cr, x, k, b, keys))
         totals[0] = tb
         totals[1] = tw
         return
@@ -324,6 +392,7 @@ def adaptive_wta_kernel(
     the right row (``sum bits_l[y]``, ``sum bits_r[y]``).
     """
     H, W = out.shape
+    narrow = sizes[sizes.shape[0] - 1] <= _NARROW_SIDE
     n_total = offsets.shape[0]
     nw = (n_total + 63) // 64
     D = min(n_disp, W)
@@ -333,19 +402,20 @@ def adaptive_wta_kernel(
         cr = np.empty((1, nw, W), np.uint64)
         bufs = (np.empty((1, D, W), np.uint32), np.empty((nw, W), np.uint64),
                 np.empty((nw, W), np.uint64), np.empty(W, np.uint32), np.empty(W, np.int64),
-                np.empty(W, np.uint32), np.empty(W, np.int64))
+                np.empty(W, np.uint32), np.empty(W, np.int64), np.empty(D, np.int32))
         bl = np.empty(W, np.int64)
         br = np.empty(W, np.int64)
-        prev = np.empty(W, np.int64)
-        run = np.empty(W, np.int64)
-        chosen = np.empty(W, np.int64)
+        s32 = np.empty((3, W), np.int32)
+        s64 = np.empty((3, W), np.int64)
         scratch = np.empty((2, W), np.uint8)
         while True:
             y = fetch_add(counter, 1)
             if y >= H:
                 break
-            if integral.shape[0] > 0:
-                _window_row(integral, pad, sizes, n_decreases, y, prev, run, chosen, wmap_l[y])
+            if integral.shape[0] > 0 and narrow:
+                _window_row(integral, pad, sizes, n_decreases, y, s32[0], s32[1], s32[2], wmap_l[y])
+            elif integral.shape[0] > 0:
+                _window_row(integral, pad, sizes, n_decreases, y, s64[0], s64[1], s64[2], wmap_l[y])
             if right_mode == 1:
                 _right_row(wmap_l[y], n_disp, scratch, wmap_r[y])
             elif right_mode == 2:
@@ -366,207 +436,14 @@ def adaptive_wta_kernel(
             totals[y, 3] = sr
 
 
-@njit(cache=True)
-def disparity_to_int(disp, out):  # pragma: no cover - compiled
-    """Integer disparities for :func:`path_mode_kernel`: ``-1`` where ``disp`` is not finite.
-
-    disp : (H, W) float array. out : (H, W) int64, overwritten.
-    Returns ``(ok, largest)``: ``ok`` is False if a finite value is negative or not an
-    integer (``out`` is then incomplete); ``largest`` is the largest valid value, ``-1`` if none.
-    """
-    H, W = disp.shape
-    largest = np.int64(-1)
-    for y in range(H):
-        for x in range(W):
-            v = disp[y, x]
-            if np.isfinite(v):
-                if v < 0 or v != np.floor(v):
-                    return False, largest
-                iv = np.int64(v)
-                out[y, x] = iv
-                largest = max(largest, iv)
-            else:
-                out[y, x] = -1
-    return True, largest
-
-
-@njit(cache=True)
-def _path_bounds(edges_line, include_edge, max_steps, lo, hi):  # pragma: no cover - compiled
-    """Path intervals along one line: ``[lo[i], i)`` backwards and ``(i, hi[i])`` forwards.
-
-    A path walks away from ``i`` until the first edge pixel (included iff ``include_edge``),
-    the end of the line, or ``max_steps`` pixels.
-    """
-    n = edges_line.shape[0]
-    last = -1
-    for i in range(n):
-        start = 0
-        if last >= 0:
-            start = last if include_edge else last + 1
-        lo[i] = max(start, i - max_steps)
-        if edges_line[i]:
-            last = i
-    nxt = n
-    for i in range(n - 1, -1, -1):
-        end = n
-        if nxt < n:
-            end = nxt + 1 if include_edge else nxt
-        hi[i] = min(end, i + 1 + max_steps)
-        if edges_line[i]:
-            nxt = i
-
-
-@njit(parallel=True, cache=True)
-def path_mode_kernel(
-    disp, edges, n_disp, include_edge, include_self, max_steps, block, out
-):  # pragma: no cover - compiled
-    """CTHW's path search (see :func:`matcher.cthw.modify_disparity`).
-
-    disp : (H, W) int64 disparities in ``[0, n_disp)``, ``-1`` = invalid (never counted).
-    edges : (H, W) bool. max_steps : pixels per direction, ``<= H + W``.
-    For each pixel, the paths run left, right, up and down from it until the first edge pixel
-    (counted iff ``include_edge``), the border, or ``max_steps`` pixels; the disparities met
-    are counted (plus the pixel's own if ``include_self``). ``out[y, x]`` = the most frequent
-    one (ties -> the smallest), ``-1`` if none was counted.
-    out : (H, W) int64, overwritten.
-
-    The left and right paths of ``(y, x)`` cover ``[lo, hi)`` of row ``y`` except ``x`` itself
-    (likewise up and down in column ``x``), and ``lo``, ``hi`` never decrease along a line.
-    So one histogram per row slides along ``x`` and one per column slides along ``y``, each
-    in ``O(line length)`` in total; a pixel's counts are the row's plus the column's, minus its
-    own disparity twice (plus once if ``include_self``): ``O(H W n_disp)`` for the vote only.
-    block : columns per work item (each block sweeps all rows; its row histograms restart at
-    the block's first column).
-    """
-    H, W = disp.shape
-    n_blocks = (W + block - 1) // block
-    for b in prange(n_blocks):
-        x0 = b * block
-        x1 = min(W, x0 + block)
-        bw = x1 - x0
-        lo_y = np.empty((bw, H), np.int64)
-        hi_y = np.empty((bw, H), np.int64)
-        col_disp = np.empty((bw, H), np.int64)
-        column = np.empty(H, np.bool_)
-        for j in range(bw):
-            for y in range(H):
-                column[y] = edges[y, x0 + j]
-                col_disp[j, y] = disp[y, x0 + j]
-            _path_bounds(column, include_edge, max_steps, lo_y[j], hi_y[j])
-        # Histograms of the current intervals [ca, cb) (per column) and [ra, rb) (row y).
-        # Few array views in the pixel loop: creating one costs reference counting.
-        col_hist = np.zeros((bw, n_disp), np.int32)
-        ca = np.zeros(bw, np.int64)
-        cb = np.zeros(bw, np.int64)
-        row_hist = np.zeros(n_disp, np.int32)
-        lo_x = np.empty(W, np.int64)
-        hi_x = np.empty(W, np.int64)
-        own_adj = np.int32(-1 if include_self else -2)
-        for y in range(H):
-            _path_bounds(edges[y], include_edge, max_steps, lo_x, hi_x)
-            for dd in range(n_disp):
-                row_hist[dd] = 0
-            ra = np.int64(0)
-            rb = np.int64(0)
-            for j in range(bw):
-                x = x0 + j
-                # slide the row interval to [lo, hi) (both ends only grow along the row)
-                lo = lo_x[x]
-                hi = hi_x[x]
-                if lo >= rb:
-                    for i in range(ra, rb):
-                        v = disp[y, i]
-                        if v >= 0:
-                            row_hist[v] -= 1
-                    ra = lo
-                    rb = lo
-                while rb < hi:
-                    v = disp[y, rb]
-                    if v >= 0:
-                        row_hist[v] += 1
-                    rb += 1
-                while ra < lo:
-                    v = disp[y, ra]
-                    if v >= 0:
-                        row_hist[v] -= 1
-                    ra += 1
-                # slide column x's interval likewise along y
-                lo = lo_y[j, y]
-                hi = hi_y[j, y]
-                a = ca[j]
-                c = cb[j]
-                if lo >= c:
-                    for i in range(a, c):
-                        v = col_disp[j, i]
-                        if v >= 0:
-                            col_hist[j, v] -= 1
-                    a = lo
-                    c = lo
-                while c < hi:
-                    v = col_disp[j, c]
-                    if v >= 0:
-                        col_hist[j, v] += 1
-                    c += 1
-                while a < lo:
-                    v = col_disp[j, a]
-                    if v >= 0:
-                        col_hist[j, v] -= 1
-                    a += 1
-                ca[j] = a
-                cb[j] = c
-                # vote: row + column counts, the own disparity counted once or not at all
-                own = disp[y, x]
-                if own >= 0:
-                    row_hist[own] += own_adj
-                # the largest count (a vectorised max), then its first, i.e. smallest, d;
-                # nothing counted (all counts <= 0) -> -1
-                ch = col_hist[j]
-                best_count = np.int32(0)
-                for dd in range(n_disp):
-                    best_count = max(best_count, row_hist[dd] + ch[dd])
-                best = np.int64(-1)
-                if best_count > 0:
-                    best = np.int64(0)
-                    while row_hist[best] + ch[best] != best_count:
-                        best += 1
-                if own >= 0:
-                    row_hist[own] -= own_adj
-                out[y, x] = best
-
-
 @njit(parallel=True, cache=True)
 def haar_sums_kernel(grey, ll, hh):  # pragma: no cover - compiled
     """Integer Haar sums of a uint8 image: ``ll = a + b + c + d``, ``hh = a - b - c + d``.
 
     grey : (H, W) uint8; ll : (ceil(H/2), ceil(W/2)) uint16 and hh : same shape int16,
     overwritten. Odd sides replicate the last row/column, as :func:`matcher.haar.haar2d`;
-    the bands of every ``norm`` are these sums times a power of two, so they are exact.
+    the bands of every ``norm`` are these sums times a power of two, so they are exact. The
+    rows are those of :func:`matcher._cthw_kernels.haar_padded_kernel` (no pad here).
     """
-    H, W = grey.shape
-    h2, w2 = ll.shape
-    for i in prange(h2):
-        r0 = grey[2 * i]
-        r1 = grey[min(2 * i + 1, H - 1)]
-        for j in range(w2):
-            j1 = min(2 * j + 1, W - 1)
-            a = np.int32(r0[2 * j])
-            b = np.int32(r0[j1])
-            c = np.int32(r1[2 * j])
-            d = np.int32(r1[j1])
-            ll[i, j] = np.uint16(a + b + c + d)
-            hh[i, j] = np.int16(a - b - c + d)
-
-
-@njit(parallel=True, cache=True)
-def upsample2_kernel(half, out):  # pragma: no cover - compiled
-    """``out[y, x] = 2 * half[y // 2, x // 2]`` as float32, ``inf`` where ``half < 0``.
-
-    half : (ceil(H/2), ceil(W/2)) int64; out : (H, W) float32, overwritten.
-    """
-    H, W = out.shape
-    for y in prange(H):
-        src = half[y // 2]
-        o = out[y]
-        for x in range(W):
-            v = src[x // 2]
-            o[x] = np.float32(2 * v) if v >= 0 else np.float32(np.inf)
+    for i in prange(ll.shape[0]):
+        _haar_row(grey, i, 0, ll[i], hh[i])

@@ -242,7 +242,7 @@ def match_awct(
         A precomputed edge map of the left image to use instead of Canny's (``sigma``, ``low``
         and ``high`` are then ignored for the left view).
     canny_impl : {"opencv", "skimage"}, default "opencv"
-        ``impl`` of :func:`matcher.edges.canny_edges`; ``"opencv"`` is ~5-10x faster than the
+        ``impl`` of :func:`matcher.edges.canny_edges`; ``"opencv"`` is ~10x faster than the
         ``"skimage"`` reference, with slightly different edge maps (see :mod:`matcher.edges`).
 
     Returns

@@ -66,7 +66,7 @@ def bench_paper_methods(
     max_disparity: int = 64,
     max_window: int = 21,
     cthw_windows: tuple[int, ...] = (9, 21),
-    repeats: int = 3,
+    repeats: int = 5,
     canny_impls: tuple[str, ...] = ("skimage", "opencv"),
 ) -> list[dict[str, object]]:
     """Time AWCT/AWSCT against CT/SCT at ``max_window`` and CTHW against CT at the same window.

@@ -27,6 +27,7 @@ match; ``params["ct_ops"]`` holds full-resolution CT's at the same window for co
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 import types
@@ -36,9 +37,9 @@ from typing import Literal
 import numba
 import numpy as np
 
-from matcher import _adaptive_kernels, _kernels
+from matcher import _cthw_kernels, _kernels
 from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
-from matcher.census import _resolve_offsets, n_bits, n_words
+from matcher.census import _resolve_offsets, n_bits
 from matcher.haar import HAAR_NORMS, haar2d
 from matcher.match import MatchResult, OpCounts, _census_ops, match
 
@@ -176,68 +177,92 @@ def modify_disparity(
         )
     include_edge = _check_bool(include_edge, "include_edge")
     include_self = _check_bool(include_self, "include_self")
-    _check_max_path(max_path)
-    out = _path_mode(
-        disparity, edges, include_edge=include_edge, include_self=include_self, max_path=max_path
-    )
-    return np.where(out >= 0, out, np.inf).astype(np.float32)
-
-
-def _path_mode(
-    disparity: np.ndarray,
-    edges: np.ndarray,
-    *,
-    include_edge: bool,
-    include_self: bool,
-    max_path: int | None,
-) -> np.ndarray:
-    """:func:`modify_disparity` on validated input, as (H, W) int64 (``-1`` = none)."""
     steps = _check_max_path(max_path)
     d = disparity if disparity.dtype in (np.float32, np.float64) else disparity.astype(np.float64)
-    di = np.empty(d.shape, dtype=np.int64)
-    ok, largest = _adaptive_kernels.disparity_to_int(d, di)
+    ok, largest = _cthw_kernels.disparity_range(d)
     if not ok:
         raise ValueError(
             "disparity: expected integer-valued disparities >= 0 (inf = invalid); "
             "round a subpixel map first"
         )
-    steps = min(steps, d.shape[0] + d.shape[1])  # no path is longer; keeps index math small
-    n_disp = int(largest) + 1 if largest >= 0 else 1
-    out = np.empty(di.shape, dtype=np.int64)
-    block = max(16, -(-di.shape[1] // (2 * numba.get_num_threads())))
-    _adaptive_kernels.path_mode_kernel(
-        di, np.ascontiguousarray(edges), n_disp, include_edge, include_self, steps, block, out
+    if largest >= 2**31 - 1:
+        raise ValueError(f"disparity: expected values below 2**31 - 1, got {largest}")
+    out = np.empty(d.shape, dtype=np.float32)
+    _path_mode_into(
+        d, edges, int(largest) + 1 if largest >= 0 else 1, out, include_edge=include_edge,
+        include_self=include_self, steps=steps, up=1,
     )
     return out
 
 
+def _path_mode_into(
+    disparity: np.ndarray,
+    edges: np.ndarray,
+    n_disp: int,
+    out: np.ndarray,
+    *,
+    include_edge: bool,
+    include_self: bool,
+    steps: int,
+    up: int,
+) -> None:
+    """The path search on validated input, written into ``out`` upsampled ``up`` times.
+
+    ``disparity`` : (H, W) float32/float64 integers in ``[0, n_disp)``, non-finite = invalid;
+    ``out`` : float32, ``up`` times the mode (``inf`` for none) in each ``up x up`` cell,
+    cropped to ``out``'s shape (:func:`matcher._cthw_kernels.path_mode_up_kernel`).
+    """
+    h, w = disparity.shape
+    steps = min(steps, h + w)  # no path is longer; keeps index math small
+    sh = _cthw_kernels.key_shift(n_disp)
+    # vote keys: count << sh | (2**sh - 1 - d); int32 unless the counts could overflow it
+    key_dtype = np.int32 if (h + w + 2) << sh < 2**31 else np.int64
+    block = max(16, -(-w // numba.get_num_threads()))  # one block per worker
+    _cthw_kernels.path_mode_up_kernel(
+        disparity, np.ascontiguousarray(edges), n_disp, sh, include_edge, include_self, steps,
+        block, up, np.empty(0, key_dtype), out,
+    )
+
+
+@functools.lru_cache(maxsize=32)
+def _census_tables(window: int, pattern: str) -> tuple[np.ndarray, int]:
+    """``(offsets, n_bits)`` of a census window, cached (read-only offsets)."""
+    offsets = _resolve_offsets(window, pattern).copy()
+    offsets.flags.writeable = False
+    return offsets, n_bits(window, pattern)
+
+
 def _coarse_uint8(
-    grey_l: np.ndarray, grey_r: np.ndarray, *, window: int, d_half: int, pattern: str
-) -> tuple[np.ndarray, OpCounts, np.ndarray]:
+    grey_l: np.ndarray, grey_r: np.ndarray, *, window: int, d_half: int, pattern: str,
+    threshold: float,
+) -> tuple[np.ndarray, OpCounts, np.ndarray, np.ndarray]:
     """Half-resolution match of uint8 views on integer Haar sums (exact, faster).
 
     ``LL`` of either norm is a positive power-of-two multiple of the 2 x 2 sum, so the census
     of the integer sums (uint16, 0..1020) is bit-identical to that of the float ``LL`` band,
     and it runs on the integer kernel path. Returns the coarse disparity (as
-    :func:`matcher.match.match`), its operation counts and ``HH`` on the ``"average"`` scale.
+    :func:`matcher.match.match`), its operation counts, the integer ``HH`` sums of the left
+    view (4 x the ``"average"`` scale) and, if ``threshold >= 0``, its edges
+    (:func:`hh_edges` with that absolute threshold; otherwise the array is not filled).
     """
     h2, w2 = (grey_l.shape[0] + 1) // 2, (grey_l.shape[1] + 1) // 2
-    ll_l = np.empty((h2, w2), np.uint16)
-    ll_r = np.empty((h2, w2), np.uint16)
-    hh_l = np.empty((h2, w2), np.int16)
-    hh_r = np.empty((h2, w2), np.int16)
-    _adaptive_kernels.haar_sums_kernel(np.ascontiguousarray(grey_l), ll_l, hh_l)
-    _adaptive_kernels.haar_sums_kernel(np.ascontiguousarray(grey_r), ll_r, hh_r)
-    offsets = _resolve_offsets(window, pattern)
     r = window // 2
+    pl = np.empty((h2 + 2 * r, w2 + 2 * r), np.uint16)
+    pr = np.empty_like(pl)
+    hh_l = np.empty((h2, w2), np.int16)
+    edges = np.empty((h2, w2), np.bool_)
+    _cthw_kernels.haar_padded_kernel(
+        np.ascontiguousarray(grey_l), np.ascontiguousarray(grey_r), r, threshold, pl, pr, hh_l,
+        edges,
+    )
+    offsets, bits = _census_tables(window, pattern)
     disp = np.empty((h2, w2), dtype=np.float32)
     _kernels.census_match_kernel(
-        np.pad(ll_l, r, mode="edge"), np.pad(ll_r, r, mode="edge"), offsets, r, d_half, 0, -1,
-        False, _COARSE_ROWS_PER_ITEM, numba.get_num_threads(), np.zeros(1, np.int64), disp,
+        pl, pr, offsets, r, d_half, 0, -1, False, _COARSE_ROWS_PER_ITEM,
+        numba.get_num_threads(), np.zeros(1, np.int64), disp,
     )
-    bits = int(offsets.shape[0])
     ops = _census_ops((h2, w2), bits, d_half)
-    return disp, ops, hh_l * 0.25
+    return disp, ops, hh_l, edges
 
 
 def match_cthw(
@@ -328,9 +353,12 @@ def match_cthw(
     _check_max_path(max_path)
 
     if grey_l.dtype == np.uint8 and grey_r.dtype == np.uint8:
-        coarse_disp, coarse_ops, hh_avg = _coarse_uint8(
-            grey_l, grey_r, window=window, d_half=d_half, pattern=pattern
+        coarse_disp, coarse_ops, hh_sum, edges = _coarse_uint8(
+            grey_l, grey_r, window=window, d_half=d_half, pattern=pattern,
+            threshold=-1.0 if hh_relative else hh_threshold,
         )
+        if hh_relative:
+            edges = hh_edges(hh_sum * 0.25, threshold=hh_threshold, relative=True)
     else:
         bands_l = haar2d(grey_l, norm=norm)
         bands_r = haar2d(grey_r, norm=norm)
@@ -340,14 +368,15 @@ def match_cthw(
         )
         coarse_disp, coarse_ops = coarse.disparity, coarse.ops
         hh_avg = bands_l.hh * (HAAR_NORMS["average"] / HAAR_NORMS[norm])
-    edges = hh_edges(hh_avg, threshold=hh_threshold, relative=hh_relative)
-    mode = _path_mode(
-        coarse_disp, edges, include_edge=include_edge, include_self=include_self,
-        max_path=max_path,
-    )
+        edges = hh_edges(hh_avg, threshold=hh_threshold, relative=hh_relative)
+    # path search and nearest-neighbour upsampling (disparity x 2) in one kernel; the coarse
+    # map holds the WTA disparities 0 .. d_half - 1
     full = np.empty((h, w), dtype=np.float32)
-    _adaptive_kernels.upsample2_kernel(mode, full)
-    bits = n_bits(window, pattern)
+    _path_mode_into(
+        coarse_disp, edges, d_half, full, include_edge=include_edge, include_self=include_self,
+        steps=_check_max_path(max_path), up=2,
+    )
+    bits = _census_tables(window, pattern)[1]
     ct_ops = _census_ops((h, w), bits, d_full)
     params = {
         "hh_threshold": hh_threshold,
