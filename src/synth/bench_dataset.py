@@ -95,20 +95,24 @@ def bench_dataset(
         machine), ``steady_cpu_ms_per_pair`` (CPU time
         of the workers, all threads, per pair at steady state: what the run costs without
         start-up, whatever else loads the machine; ``1000 * cores / steady_cpu_ms_per_pair``
-        bounds the steady rate of an idle machine) and ``efficiency`` (steady rate over
-        ``workers / workers[0]`` times the first one's).
+        bounds the steady rate of an idle machine), ``efficiency`` (steady rate over
+        ``workers / workers[0]`` times the first one's) and ``cold`` (True for the first
+        multi-worker run of this call; see below).
 
     The first multi-worker run of a process also starts the engine's fork server (imports and
     numba set-up, ~1.5 s, see :mod:`synth.engine`) and probes the GL backend; later runs (the
-    next configurations) reuse both, so their ``startup_s`` is smaller.
+    next configurations, or the same one listed twice) reuse both, so their ``startup_s`` is
+    smaller. ``cold`` marks the first such run of this call (cold unless the process ran a
+    multi-worker job before).
     """
     from synth.config import load_config
     from synth.dataset import _SampleTask
     from synth.engine import run_tasks
 
+    loaded = [load_config(name) for name in configs]  # every error before the first run
     rows = []
-    for name in configs:
-        cfg = load_config(name)
+    cold = True
+    for cfg in loaded:
         base_rate = base_steady = None
         for w in workers:
             with tempfile.TemporaryDirectory() as tmp:
@@ -132,7 +136,9 @@ def bench_dataset(
                          "startup_s": seconds - count / steady,
                          "pairs_per_cpu_s": count / cpu,
                          "steady_cpu_ms_per_pair": 1e3 * _steady_cpu_per_pair(stamps),
-                         "efficiency": steady / base_steady / scale})
+                         "efficiency": steady / base_steady / scale,
+                         "cold": cold if w > 1 else None})
+            cold = cold and w == 1
     return rows
 
 

@@ -356,14 +356,30 @@ def bench_paper_cmd(out) -> None:
 @click.option("--out", "out", default="out/bench", show_default=True,
               type=click.Path(file_okay=False, path_type=Path))
 @click.option("--count", default=40, show_default=True, type=click.IntRange(min=1))
+@click.option("--configs", default="planes,texture-sweep,flying", show_default=True,
+              help="Comma-separated example names or config paths; a name listed twice is "
+                   "run twice (the second run finds the worker server started).")
+@click.option("--workers", "workers_text", default="1,2", show_default=True,
+              help="Comma-separated worker counts; efficiency is relative to the first.")
 @click.option("--backend", default="auto", show_default=True,
               type=click.Choice(["auto", "egl", "osmesa"]))
-def bench_dataset_cmd(out, count, backend) -> None:
+def bench_dataset_cmd(out, count, configs, workers_text, backend) -> None:
     """Dataset pairs/s at 640x480 with 1 and 2 workers (writing included) and scaling."""
     from synth.bench import write_table
     from synth.bench_dataset import bench_dataset
 
-    rows = bench_dataset(count=count, backend=backend, progress=True)
+    names = [c.strip() for c in configs.split(",") if c.strip()]
+    parts = [w.strip() for w in workers_text.split(",") if w.strip()]
+    if not names:
+        _fail(ValueError("--configs is empty; give example names such as planes,flying"))
+    if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
+        _fail(ValueError(f"--workers must be positive ints separated by commas, got "
+                         f"{workers_text!r}"))
+    try:
+        rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
+                             backend=backend, progress=True)
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(exc)
     click.echo(write_table(rows, Path(out), "dataset"))
 
 

@@ -69,9 +69,38 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     (row,) = bench_dataset(configs=(str(path),), count=3, workers=(1,))
     assert (row["config"], row["size"], row["workers"], row["pairs"]) == ("tiny", "32x24", 1, 3)
     assert row["steady_cpu_ms_per_pair"] > 0 and row["efficiency"] == 1
+    assert row["cold"] is None  # one worker: no worker server
     prof = profile_dataset(str(path), count=2)
     stages = ("draw", "search", "render", "photometric", "stats", "write")
     for suffix in ("", "_cpu"):
         assert prof[f"total{suffix}_ms"] == pytest.approx(
             sum(prof[f"{s}{suffix}_ms"] for s in stages))
     assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] > 0
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_bench_marks_only_the_first_multi_worker_run_cold(tmp_path, renderer):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    rows = bench_dataset(configs=(str(path), str(path)), count=3, workers=(1, 2))
+    assert [(r["workers"], r["cold"]) for r in rows] == [(1, None), (2, True), (1, None),
+                                                        (2, False)]
+    assert all(r["pairs_per_s"] > 0 and r["steady_pairs_per_s"] > 0 for r in rows)
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--workers", "1,two"], "--workers must be positive ints separated by commas, got '1,two'"),
+    (["--workers", "0"], "--workers must be positive ints"),
+    (["--configs", " , "], "--configs is empty"),
+    (["--configs", "no-such-config"], "no-such-config"),
+])
+def test_bench_dataset_cli_rejects_bad_options(tmp_path, args, message):
+    from click.testing import CliRunner
+
+    from synth.cli import main
+
+    result = CliRunner().invoke(main, ["bench", "dataset", "--out", str(tmp_path), *args])
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert not any(tmp_path.iterdir())
