@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import re
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -26,6 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from scenes import PRESETS
+from synth._toml import line_of
 from synth.rig import StereoRig
 
 __all__ = [
@@ -179,33 +179,6 @@ class Dist:
         return self.args[0] if self.kind == "fixed" else {self.kind: list(self.args)}
 
 
-# --------------------------------------------------------------------------- line finding
-_HEADER = re.compile(r"^\s*\[\s*([A-Za-z0-9_.\-\"' ]+?)\s*\]\s*(#.*)?$")
-
-
-def _line_of(text: str, section: str, key: str | None) -> int | None:
-    """1-based line of ``key`` in ``[section]`` (or of the section header), else ``None``."""
-    current = ""
-    header_line = None
-    key_re = re.compile(r"^\s*[\"']?" + re.escape(key) + r"[\"']?\s*[=.]") if key else None
-    dotted = re.compile(r"^\s*" + re.escape(section) + r"\s*\.\s*" + re.escape(key or "") + r"\s*=") \
-        if section and key else None
-    for no, line in enumerate(text.splitlines(), start=1):
-        m = _HEADER.match(line)
-        if m:
-            current = m.group(1).strip().strip("\"'")
-            if section == "" and key is not None and current == key:
-                return no
-            if current == section and header_line is None:
-                header_line = no
-            continue
-        if key_re is not None and current == section and key_re.match(line):
-            return no
-        if dotted is not None and current == "" and dotted.match(line):
-            return no
-    return header_line
-
-
 # --------------------------------------------------------------------------- the config
 @dataclass(frozen=True)
 class DatasetConfig:
@@ -265,7 +238,7 @@ class _Parser:
         self.text, self.source = text, source
 
     def fail(self, section: str, key: str | None, message: str) -> ConfigError:
-        line = _line_of(self.text, section, key) if self.text else None
+        line = line_of(self.text, section, key) if self.text else None
         where = f"{self.source}:{line}" if line else self.source
         table = f"[{section}] " if section else ""
         return ConfigError(f"{where}: {table}{message}")

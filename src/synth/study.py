@@ -37,7 +37,6 @@ import io
 import json
 import math
 import os
-import re
 import tomllib
 import zlib
 from dataclasses import dataclass
@@ -47,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from synth._toml import line_of
 from synth.engine import run_tasks
 from synth.io._atomic import atomic_write_bytes, save_figure_atomic
 from synth.rig import StereoRig
@@ -108,19 +108,6 @@ class StudyConfig:
 
 
 # --------------------------------------------------------------------------- config parsing
-def _line_of(text: str, section: str, key: str) -> int | None:
-    current = ""
-    for no, line in enumerate(text.splitlines(), start=1):
-        head = re.match(r"^\s*\[\s*([A-Za-z0-9_\-]+)\s*\]", line)
-        if head:
-            current = head.group(1)
-            if not section and current == key:
-                return no
-        elif current == section and re.match(rf"^\s*{re.escape(key)}\s*=", line):
-            return no
-    return None
-
-
 def _coerce(kind: str, value: Any) -> Any:
     def num(v: Any, integer: bool) -> Any:
         ok = isinstance(v, int) if integer else isinstance(v, (int, float))
@@ -151,7 +138,7 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
         raise StudyConfigError(f"{source}: invalid TOML: {exc}") from None
 
     def fail(section: str, key: str, message: str) -> StudyConfigError:
-        line = _line_of(text, section, key)
+        line = line_of(text, section, key)
         where = f"{source}:{line}" if line else source
         return StudyConfigError(f"{where}: {section + '.' if section else ''}{key}: {message}")
 
