@@ -205,10 +205,8 @@ def build_mesh(obj: ObjectSpec) -> trimesh.Trimesh:
     -------
     mesh : trimesh.Trimesh
         ``process=False``; ``mesh.visual`` is a ``TextureVisuals`` (``uv`` (N, 2) float64,
-        ``material.image`` an RGB ``PIL.Image``); ``mesh.metadata`` holds ``name``, ``kind``,
-        ``double_sided`` (True for open surfaces, see :data:`OPEN_KINDS`) and ``texture_rgb``,
-        the material image's pixels as a read-only (h, w, 3) uint8 array (renderers use it
-        to skip a copy out of PIL).
+        ``material.image`` an RGB ``PIL.Image``); ``mesh.metadata`` holds ``name``, ``kind`` and
+        ``double_sided`` (True for open surfaces, see :data:`OPEN_KINDS`).
 
     Examples
     --------
@@ -225,9 +223,7 @@ def build_mesh(obj: ObjectSpec) -> trimesh.Trimesh:
     transform = obj.pose.matrix()
     world = verts @ transform[:3, :3].T + transform[:3, 3]
     uv = np.column_stack([coords[:, 0] / extent[0], 1.0 - coords[:, 1] / extent[1]])
-    pixels = make_texture(obj.texture, extent=extent)
-    pixels.setflags(write=False)
-    image = Image.fromarray(pixels, mode="RGB")
+    image = Image.fromarray(make_texture(obj.texture, extent=extent), mode="RGB")
     material = trimesh.visual.material.SimpleMaterial(
         image=image, diffuse=[255, 255, 255, 255], ambient=[255, 255, 255, 255],
         specular=[0, 0, 0, 255], name=obj.name or obj.kind)
@@ -235,8 +231,7 @@ def build_mesh(obj: ObjectSpec) -> trimesh.Trimesh:
     return trimesh.Trimesh(
         vertices=world, faces=faces, vertex_normals=_vertex_normals(world, faces), visual=visual,
         process=False, validate=False,
-        metadata={"name": obj.name, "kind": obj.kind, "double_sided": obj.kind in OPEN_KINDS,
-                  "texture_rgb": pixels})
+        metadata={"name": obj.name, "kind": obj.kind, "double_sided": obj.kind in OPEN_KINDS})
 
 
 def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

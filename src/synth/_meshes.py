@@ -102,12 +102,7 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
         image = getattr(mat, "image", None) or getattr(mat, "baseColorTexture", None)
         if visual.uv is not None and image is not None:
             uv = np.asarray(visual.uv, dtype=np.float64)
-            array = m.metadata.get("texture_rgb")  # scenes' meshes carry the material's pixels
-            if (isinstance(array, np.ndarray) and array.dtype == np.uint8 and array.ndim == 3
-                    and array.shape[1::-1] == tuple(getattr(image, "size", ()))):
-                image = np.ascontiguousarray(array)
-            else:
-                image = texture_array(image)
+            image = texture_array(image)  # RGB(A) as is: Mesa converts to RGBA on upload
         else:
             image = None
             main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)

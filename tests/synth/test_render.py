@@ -77,26 +77,15 @@ def _quad(z: float = 2.0, half: float = 2.0) -> trimesh.Trimesh:
 
 @pytest.mark.gl
 def test_texture_sources_give_the_same_pixels(renderer: Renderer) -> None:
-    """RGB and RGBA PIL images, grey images and scenes' `texture_rgb` arrays are one texture."""
+    """RGB and RGBA PIL images (alpha ignored) and grey images are one texture."""
     rig = StereoRig.default(32, 24)
     base = _quad()
     reference = renderer.render_view([base], rig, eye="left").color
     rgb = np.asarray(base.visual.material.image)
-    variants = {
-        "rgba": Image.fromarray(np.dstack([rgb, np.full(rgb.shape[:2], 7, np.uint8)])),
-        "texture_rgb": base.visual.material.image,
-    }
-    for name, image in variants.items():
-        mesh = _quad()
-        mesh.visual.material.image = image
-        if name == "texture_rgb":
-            mesh.metadata["texture_rgb"] = rgb
-        got = renderer.render_view([mesh], rig, eye="left").color
-        np.testing.assert_array_equal(got, reference, err_msg=name)
-    # a stale `texture_rgb` (not the image's size) is ignored: the image wins
-    mesh = _quad()
-    mesh.metadata["texture_rgb"] = np.zeros((5, 5, 3), np.uint8)
-    np.testing.assert_array_equal(renderer.render_view([mesh], rig, eye="left").color, reference)
+    rgba = _quad()
+    rgba.visual.material.image = Image.fromarray(
+        np.dstack([rgb, np.full(rgb.shape[:2], 7, np.uint8)]))
+    np.testing.assert_array_equal(renderer.render_view([rgba], rig, eye="left").color, reference)
     grey = _quad()
     grey.visual.material.image = Image.fromarray(rgb[:, :, 0])  # mode "L": red channel only
     got = renderer.render_view([grey], rig, eye="left").color
