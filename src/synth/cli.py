@@ -105,6 +105,10 @@ def dataset(config, out, count, workers, engine, address, fmt, backend) -> None:
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
+    if engine == "local" and workers > 1:  # the worker server imports while this process does
+        from synth.engine import start_worker_server
+
+        start_worker_server(["synth.dataset", "synth.pair"])
     from synth.dataset import SampleError, run_dataset
 
     try:
@@ -239,6 +243,10 @@ def study(config, out, workers, backend) -> None:
 
     Resumable: rerun the same command and only the missing cells are computed.
     """
+    if workers > 1:  # the worker server imports while this process does
+        from synth.engine import start_worker_server
+
+        start_worker_server(["synth.study"])
     from synth.study import run_study
 
     try:

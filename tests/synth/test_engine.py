@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -174,3 +175,35 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
     assert files == sorted(str(p.relative_to(remote)) for p in remote.rglob("*") if p.is_file())
     for f in files:
         assert Path(local, f).read_bytes() == Path(remote, f).read_bytes(), f
+
+
+_EARLY_SERVER = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+import psutil
+from synth.engine import run_tasks, start_worker_server
+
+start_worker_server(["early_task"])  # before this process imports the task's module
+servers = [p.pid for p in psutil.Process().children() if "forkserver" in " ".join(p.cmdline())]
+import early_task
+
+out = dict(run_tasks(early_task.Parent(), range(4), workers=2))
+print(json.dumps({"servers": servers, "parents": sorted({r["ppid"] for r in out.values()}),
+                  "squares": [out[i]["square"] for i in range(4)]}))
+"""
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_an_early_started_server_forks_the_workers(tmp_path):
+    (tmp_path / "early_task.py").write_text(
+        "import os\n\n\nclass Parent:\n    width, height, backend = 16, 16, 'auto'\n\n"
+        "    def __call__(self, index, renderer):\n"
+        "        return {'ppid': os.getppid(), 'square': index * index}\n")
+    out = subprocess.run([sys.executable, "-c", _EARLY_SERVER, str(tmp_path)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    res = json.loads(out.stdout)
+    assert len(res["servers"]) == 1  # started by start_worker_server, before any run
+    assert res["parents"] == res["servers"]  # both workers were forked by it
+    assert res["squares"] == [0, 1, 4, 9]
