@@ -51,6 +51,10 @@ p.delete_context()
 def probe_backend(backend: str) -> str | None:
     """Try ``backend`` in a subprocess; ``None`` if it starts, else the error text."""
     env = dict(os.environ, PYOPENGL_PLATFORM=backend)
+    # the probe imports synth.render: find it where this process did (a source checkout on
+    # sys.path, not installed, included)
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (here, env.get("PYTHONPATH")) if p)
     try:
         out = subprocess.run(
             [sys.executable, "-c", _PROBE, backend],

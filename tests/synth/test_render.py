@@ -49,6 +49,22 @@ def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyP
     assert "libegl1 libegl-mesa0 libgl1-mesa-dri" in msg and "libosmesa6" in msg
 
 
+def test_probe_finds_synth_where_this_process_did(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The probe subprocess imports synth.render: its PYTHONPATH leads with synth's parent."""
+    seen = {}
+
+    def fake_run(cmd, *, env, **kwargs):
+        seen.update(env=env, cmd=cmd)
+        return subprocess.CompletedProcess(cmd, 0, "llvmpipe", "")
+
+    monkeypatch.setattr(backend_mod.subprocess, "run", fake_run)
+    monkeypatch.setenv("PYTHONPATH", "/elsewhere")
+    assert backend_mod.probe_backend.__wrapped__("egl") is None
+    src = os.path.dirname(os.path.dirname(os.path.abspath(backend_mod.__file__)))
+    assert seen["env"]["PYTHONPATH"].split(os.pathsep) == [src, "/elsewhere"]
+    assert seen["env"]["PYOPENGL_PLATFORM"] == "egl" and seen["cmd"][-1] == "egl"
+
+
 def test_locked_platform_error(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(backend_mod, "platform_in_use", lambda: "glx")
     with pytest.raises(GLBackendError, match=r"already imported.*'glx'.*fresh process"):
