@@ -10,13 +10,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from matcher._cthw_kernels import _haar_row
 from matcher._kernels import _census_row, _row_cost, _select_row, fetch_add, popcount64
 
 __all__ = [
     "adaptive_wta_kernel",
     "edge_integral",
-    "haar_sums_kernel",
     "right_window_map",
     "select_windows_kernel",
 ]
@@ -434,16 +432,3 @@ def adaptive_wta_kernel(
             _adaptive_row(cl, cr, bl, br, n_disp, n_total, left_only, bufs, out[y], totals[y])
             totals[y, 2] = sl
             totals[y, 3] = sr
-
-
-@njit(parallel=True, cache=True)
-def haar_sums_kernel(grey, ll, hh):  # pragma: no cover - compiled
-    """Integer Haar sums of a uint8 image: ``ll = a + b + c + d``, ``hh = a - b - c + d``.
-
-    grey : (H, W) uint8; ll : (ceil(H/2), ceil(W/2)) uint16 and hh : same shape int16,
-    overwritten. Odd sides replicate the last row/column, as :func:`matcher.haar.haar2d`;
-    the bands of every ``norm`` are these sums times a power of two, so they are exact. The
-    rows are those of :func:`matcher._cthw_kernels.haar_padded_kernel` (no pad here).
-    """
-    for i in prange(ll.shape[0]):
-        _haar_row(grey, i, 0, ll[i], hh[i])

@@ -146,14 +146,14 @@ def test_uint8_integer_haar_path_equals_the_float_path(shape, norm, pattern):
     assert a.ops == b.ops
 
 
-def test_haar_sums_kernel_matches_haar2d():
-    from matcher import _adaptive_kernels
+def test_haar_padded_kernel_matches_haar2d():
+    from matcher._cthw_kernels import haar_padded_kernel
     from matcher.haar import haar2d
 
     img = np.array([[4, 2, 9], [0, 2, 1], [255, 0, 7]], np.uint8)
-    ll = np.empty((2, 2), np.uint16)
+    ll = np.empty((2, 2), np.uint16)  # r = 0: no padding
     hh = np.empty((2, 2), np.int16)
-    _adaptive_kernels.haar_sums_kernel(img, ll, hh)
+    haar_padded_kernel(img, img, 0, -1.0, ll, np.empty_like(ll), hh, np.zeros((2, 2), bool))
     bands = haar2d(img, norm="average")
     assert ll.tolist() == [[8, 20], [510, 28]]  # odd sides replicate: 7 + 7 + 7 + 7
     assert np.array_equal(ll, bands.ll * 4) and np.array_equal(hh, bands.hh * 4)
