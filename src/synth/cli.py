@@ -108,7 +108,7 @@ def dataset(config, out, count, workers, engine, address, fmt, backend) -> None:
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.engine import start_worker_server
 
-        start_worker_server(["synth.dataset", "synth.pair"])
+        start_worker_server(["synth.dataset"])  # the task's module (the server adds its own)
     from synth.dataset import SampleError, run_dataset
 
     try:
