@@ -35,7 +35,7 @@ _gl_error: list[str | None] = []
 
 def _gl_unavailable() -> str | None:
     if not _gl_error:
-        from synth.render import GLBackendError, Renderer
+        from synth.render.renderer import GLBackendError, Renderer
 
         try:
             with Renderer(8, 8):

@@ -19,13 +19,11 @@ from synth.io._atomic import atomic_write_bytes
 from synth.io.kitti import write_kitti
 from synth.io.middlebury import write_middlebury
 from synth.io.png import encode_png
+from synth.formats import FORMATS
 from synth.pair import StereoPair
 from synth.preview import preview_image
 
 __all__ = ["FORMATS", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for", "write_pair"]
-
-FORMATS = ("middlebury", "kitti")
-
 
 class OutputDirError(ValueError):
     """The output directory cannot be used as asked."""

@@ -17,7 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 from numba import njit
 
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 
 __all__ = [

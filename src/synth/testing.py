@@ -5,7 +5,7 @@ The GL-free strategies (images, shifted pairs, piecewise-planar pairs) are in
 :class:`synth.pair.StereoPair`, so a matcher can be property-tested on geometry with occlusions::
 
     from hypothesis import given, settings
-    from synth.render import Renderer
+    from synth.render.renderer import Renderer
     from synth.testing import rendered_pairs
 
     RENDERER = Renderer(96, 72)

@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from synth.render import GLBackendError, Renderer
+from synth.render.renderer import GLBackendError, Renderer
 
 
 @pytest.fixture(scope="session")

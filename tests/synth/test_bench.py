@@ -7,9 +7,9 @@ import csv
 import pytest
 from click.testing import CliRunner
 
-from synth.bench import bench_render, write_table
+from synth.jobs.bench_render import bench_render, write_table
 from synth.cli import main
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 
 
 @pytest.mark.gl

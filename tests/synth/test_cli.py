@@ -144,7 +144,7 @@ def test_eval_rejects_corrupt_pfm(tmp_path):
 
 @pytest.mark.gl
 def test_render_from_manifest_respects_overwrite(tmp_path, renderer):
-    from synth.dataset import run_dataset
+    from synth.dataset.run import run_dataset
 
     run_dataset("planes", out=tmp_path / "ds", count=1, progress=False)
     out = tmp_path / "one"

@@ -14,15 +14,15 @@ from pathlib import Path
 
 import pytest
 
-from synth.config import loads_config
-from synth.dataset import (
+from synth.dataset.config import loads_config
+from synth.dataset.run import (
     DatasetError,
     SampleError,
     read_manifest,
     render_from_manifest,
     run_dataset,
 )
-from synth.sampling import draw_sample, sample_seed
+from synth.dataset.sampling import draw_sample, sample_seed
 
 CONFIG = """\
 name = "tiny"
@@ -232,7 +232,7 @@ def test_kitti_layout(config_file, tmp_path, renderer):
 _RUNNER = """
 import signal
 import sys
-from synth.dataset import run_dataset
+from synth.dataset.run import run_dataset
 if __name__ == "__main__":
     # a shell without job control starts background jobs with SIGINT ignored, and Python then
     # installs no KeyboardInterrupt handler; restore it, as for a user pressing Ctrl-C
@@ -309,7 +309,7 @@ def test_edge_density_config_reaches_its_targets(tmp_path, renderer):
 
 @pytest.mark.gl
 def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, monkeypatch):
-    import synth.dataset as dataset
+    import synth.dataset.run as dataset
     from synth.texture_control import edge_density
 
     text = CONFIG.replace("count = 12", "count = 2").replace("width = 48", "width = 64").replace(
@@ -320,10 +320,10 @@ def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, mo
     cfg = loads_config(text)
     calls = []
     monkeypatch.setattr(dataset, "edge_density", lambda img: calls.append(1) or edge_density(img))
-    record = dataset._produce(cfg, 0, renderer, tmp_path / "s", "middlebury")
+    record = dataset.produce_sample(cfg, 0, renderer, tmp_path / "s", "middlebury")
     assert calls == []  # the search rendered this left view already: no second Canny
     assert (tmp_path / "s" / "sample.json").is_file()
     plain = loads_config(text.replace("edge_density = {uniform = [0.1, 0.2]}", ""))
-    dataset._produce(plain, 0, renderer, tmp_path / "p", "middlebury")
+    dataset.produce_sample(plain, 0, renderer, tmp_path / "p", "middlebury")
     assert calls == [1]  # without a search the statistic is measured
     assert record["stats"]["edge_search_probes"] >= 1

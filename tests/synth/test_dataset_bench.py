@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from synth.bench_dataset import (
+from synth.jobs.bench_dataset import (
     _cpu_seconds,
     _steady_cpu_per_pair,
     bench_dataset,

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from synth.engine import ray_available, run_tasks
+from synth.dataset.engine import ray_available, run_tasks
 
 
 class _Square:
@@ -86,10 +86,10 @@ _PRELOAD = """
 import os, sys, threading
 import cv2, numpy, scipy.linalg  # their BLAS thread pools start at import (fork-aware)
 libraries = len(os.listdir("/proc/self/task"))
-from synth.config import load_config
-from synth.dataset import _SampleTask
-from synth.engine import _preload
-modules = _preload(_SampleTask(load_config("planes"), "/nonexistent", "middlebury", "auto"))
+from synth.dataset.config import load_config
+from synth.dataset.run import SampleTask
+from synth.dataset.engine import _preload
+modules = _preload(SampleTask(load_config("planes"), "/nonexistent", "middlebury", "auto"))
 for name in modules:
     __import__(name)
 print(sorted(modules))
@@ -102,8 +102,8 @@ print(threading.active_count(), len(os.listdir("/proc/self/task")) - libraries)
 def test_the_fork_server_preload_opens_no_gl_and_starts_no_thread():
     out = subprocess.run([sys.executable, "-c", _PRELOAD], capture_output=True, text=True,
                          check=True).stdout.splitlines()
-    assert out[0] == str(sorted(["synth.engine", "synth.dataset", "synth.pair",
-                                 "synth._worker_warm"]))
+    assert out[0] == str(sorted(["synth.dataset.engine", "synth.dataset.run", "synth.pair",
+                                 "synth.dataset.warm"]))
     assert out[1] == "[]"  # nothing GL: a forked GL state would be unusable
     # one Python thread, and no OS thread beyond numpy's, SciPy's and OpenCV's BLAS pools
     # (which re-initialise after a fork): numba's OpenMP pool is never started there
@@ -114,7 +114,7 @@ _FAULTS = """
 import resource, sys
 import numpy as np
 if sys.argv[1] == "tuned":
-    from synth.engine import _tune_malloc
+    from synth.dataset.engine import _tune_malloc
     _tune_malloc()
 sizes = [3 << 20, 5 << 20, 2 << 20, 7 << 20]  # numpy temporaries of a few MB, as in a sample
 for _ in range(3):
@@ -152,8 +152,8 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
     _require_ray(require_or_skip)
     import ray
 
-    from synth.config import loads_config
-    from synth.dataset import SampleError, run_dataset
+    from synth.dataset.config import loads_config
+    from synth.dataset.run import SampleError, run_dataset
 
     cfg = loads_config("seed = 2\ncount = 4\n[rig]\nwidth = 32\nheight = 24\n[scene]\n"
                        'base = {choice = ["fronto_plane", "flying"]}\noccluders = 1\n'
@@ -181,7 +181,7 @@ _EARLY_SERVER = """
 import json, sys
 sys.path.insert(0, sys.argv[1])
 import psutil
-from synth.engine import run_tasks, start_worker_server
+from synth.dataset.engine import run_tasks, start_worker_server
 
 start_worker_server(["early_task"])  # before this process imports the task's module
 servers = [p.pid for p in psutil.Process().children() if "forkserver" in " ".join(p.cmdline())]

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from matcher.io import read_pfm, write_pfm
-from synth.golden import (
+from synth.jobs.golden import (
     GOLDEN_CASES,
     GOLDEN_SCENES,
     TOLERANCES,

@@ -10,7 +10,7 @@ import scenes
 import trimesh
 
 from synth.pair import MASK_VISIBLE, render_pair
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 
 pytestmark = pytest.mark.gl

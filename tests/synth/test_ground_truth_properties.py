@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec
 
 from synth.pair import render_pair
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 
 pytestmark = pytest.mark.gl

@@ -8,7 +8,7 @@ import pytest
 import scenes
 
 from synth.pair import MASK_OCCLUDED, MASK_VISIBLE, StereoPair, occlusion_mask, render_pair
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 
 

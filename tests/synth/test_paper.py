@@ -1,4 +1,4 @@
-"""synth.paper.run_paper on a tiny synthetic Middlebury-like folder."""
+"""synth.jobs.paper.run_paper on a tiny synthetic Middlebury-like folder."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from synth.paper import run_paper
+from synth.jobs.paper import run_paper
 
 
 def _scene(root, name, shift, seed):

@@ -15,9 +15,9 @@ import scenes
 import trimesh
 from PIL import Image
 
-import synth._backend as backend_mod
+import synth.render.backend as backend_mod
 from synth.pair import render_pair
-from synth.render import GLBackendError, Renderer
+from synth.render.renderer import GLBackendError, Renderer
 from synth.rig import StereoRig
 
 
@@ -50,7 +50,7 @@ def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyP
 
 
 def test_probe_finds_synth_where_this_process_did(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The probe subprocess imports synth.render: its PYTHONPATH leads with synth's parent."""
+    """The probe subprocess imports synth.render.renderer: its PYTHONPATH leads with synth's parent."""
     seen = {}
 
     def fake_run(cmd, *, env, **kwargs):
@@ -73,7 +73,7 @@ def test_locked_platform_error(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_importing_synth_does_not_import_gl() -> None:
     """PYOPENGL_PLATFORM must be settable after `import synth`: GL imports are lazy."""
-    code = ("import sys, synth.render, synth.pair, synth.rig; "
+    code = ("import sys, synth.render.renderer, synth.pair, synth.rig; "
             "print(sorted(m for m in ('OpenGL', 'pyrender') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
@@ -274,7 +274,7 @@ def test_egl_and_osmesa_agree() -> None:
 
 @pytest.mark.gl
 def test_resolve_backend_names_a_backend_and_skipping_the_probe_works(renderer: Renderer) -> None:
-    from synth.render import resolve_backend
+    from synth.render.renderer import resolve_backend
 
     name = resolve_backend("auto")
     assert name == renderer.backend
@@ -288,7 +288,7 @@ _THREADS_SCRIPT = textwrap.dedent("""
     import hashlib, json, os, sys
     import scenes
     from synth.pair import render_pair
-    from synth.render import Renderer
+    from synth.render.renderer import Renderer
     from synth.rig import StereoRig
 
     threads = int(sys.argv[1])

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from scenes import TextureSpec, build_meshes, get_preset
 from synth.pair import render_pair
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 from synth.testing import preset_scenes, rendered_pairs
 

@@ -1,4 +1,4 @@
-"""Scenes and mesh lists turned into what :mod:`synth.render` uploads (no GL here).
+"""Scenes and mesh lists turned into what :mod:`synth.render.renderer` uploads (no GL here).
 
 Each mesh becomes interleaved float32 vertices (position, texture coordinate, baked
 view-independent Lambert shade), uint32 faces, its texture pixels and whether its back faces

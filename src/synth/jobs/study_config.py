@@ -1,4 +1,4 @@
-"""Configuration of the texture-versus-window study (:mod:`synth.study`): TOML in, validated
+"""Configuration of the texture-versus-window study (:mod:`synth.jobs.study`): TOML in, validated
 :class:`StudyConfig` out, errors with the file and line (:class:`StudyConfigError`)."""
 
 from __future__ import annotations
@@ -177,14 +177,14 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
 
 
 def list_studies() -> list[str]:
-    """Names of the shipped study configurations (``src/synth/configs/study-*.toml``).
+    """Names of the shipped study configurations (``src/synth/dataset/configs/study-*.toml``).
 
     Examples
     --------
     >>> "study-texture-window" in list_studies()
     True
     """
-    folder = resources.files("synth") / "configs"
+    folder = resources.files("synth.dataset") / "configs"
     return sorted(p.name[:-5] for p in folder.iterdir()
                   if p.name.startswith("study-") and p.name.endswith(".toml"))
 
@@ -211,7 +211,7 @@ def load_study_config(config: str | Path | StudyConfig) -> StudyConfig:
     shipped = list_studies()
     for candidate in (name, f"study-{name}"):
         if Path(name).suffix != ".toml" and candidate in shipped:
-            res = resources.files("synth") / "configs" / f"{candidate}.toml"
+            res = resources.files("synth.dataset") / "configs" / f"{candidate}.toml"
             return loads_study_config(res.read_text(encoding="utf-8"), source=f"{candidate}.toml")
     path = Path(config)
     if not path.is_file():

@@ -1,4 +1,4 @@
-"""``summary.md`` and the figures of a texture-versus-window study (:mod:`synth.study`)."""
+"""``summary.md`` and the figures of a texture-versus-window study (:mod:`synth.jobs.study`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.io._atomic import save_figure_atomic
-from synth.study_config import StudyConfig
+from synth.jobs.study_config import StudyConfig
 
 __all__ = ["summarize", "write_plots"]
 

@@ -14,7 +14,7 @@ Layout of a dataset directory ``out/``::
 Guarantees (see ``docs/datasets.md``):
 
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
-  :func:`synth.sampling.sample_seed`), so its files are byte-identical whatever the number of
+  :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
   workers, the engine or the order;
 - a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to ``NNNNNN/`` when complete: the
   directory existing *is* the completion marker. A run killed at any point and restarted skips
@@ -43,16 +43,16 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from synth.config import DatasetConfig, config_from_dict, load_config
-from synth.engine import ENGINES, run_tasks
+from synth.dataset.config import DatasetConfig, config_from_dict, load_config
+from synth.dataset.engine import ENGINES, run_tasks
 from synth.export import FORMATS, prepare_output_dir, write_pair
 from synth.io._atomic import atomic_write_bytes
 from synth.photometric import apply_photometric
-from synth.sampling import draw_sample, effective_frequency_px, sample_seed, stream
+from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
 from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density
 
-__all__ = ["DatasetError", "SampleError", "DatasetRun", "run_dataset", "render_from_manifest",
-           "read_manifest"]
+__all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_sample", "run_dataset",
+           "render_from_manifest", "read_manifest"]
 
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
 #: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
@@ -111,7 +111,7 @@ def _json_bytes(obj: Any) -> bytes:
 
 
 # --------------------------------------------------------------------------- one sample
-def _produce(config: DatasetConfig, index: int, renderer: Any, dest: Path, fmt: str, *,
+def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path, fmt: str, *,
              timings: dict[str, float] | None = None) -> dict:
     """Render sample ``index`` and write all its files into ``dest``; return its record.
 
@@ -193,8 +193,8 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
     # rename durable would buy nothing after a power loss, and it costs ~3 ms per sample.
 
 
-class _SampleTask:
-    """Picklable per-sample job (see :mod:`synth.engine`)."""
+class SampleTask:
+    """Picklable per-sample job (see :mod:`synth.dataset.engine`)."""
 
     preload = ("synth.pair",)  # imported once by the engine's fork server for every worker
 
@@ -218,7 +218,7 @@ class _SampleTask:
         tmp = self.out / f".{index:06d}.tmp-{os.getpid()}"
         try:
             shutil.rmtree(tmp, ignore_errors=True)
-            record = _produce(self.config, index, renderer, tmp, self.fmt)
+            record = produce_sample(self.config, index, renderer, tmp, self.fmt)
             _commit(tmp, self.out, index, self.fmt)
             return record
         except BaseException as exc:
@@ -367,7 +367,7 @@ def run_dataset(
     SampleError
         A sample failed (its index and seed are in the message); the samples completed before
         stay, and the manifest lists them.
-    synth.config.ConfigError
+    synth.dataset.config.ConfigError
         The configuration is invalid (file, line, allowed values).
 
     Examples
@@ -400,7 +400,7 @@ def run_dataset(
             if _TMP_DIR.match(stale.name):
                 shutil.rmtree(stale, ignore_errors=True)
         todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]
-        task = _SampleTask(cfg, out, fmt, backend)
+        task = SampleTask(cfg, out, fmt, backend)
         bar = tqdm(total=len(todo), desc=f"dataset {cfg.name}", unit="pair", disable=not progress)
         try:
             for _ in run_tasks(task, todo, workers=workers, engine=engine, address=address):
@@ -446,7 +446,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "000001", "im0.png").read_bytes()
     True
     """
-    from synth.render import Renderer
+    from synth.render.renderer import Renderer
 
     root = Path(dataset_dir)
     path = root / "dataset.json"
@@ -464,7 +464,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     dest = prepare_output_dir(out, overwrite=overwrite)
     try:
         with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer:
-            _produce(cfg, index, renderer, dest, header["format"])
+            produce_sample(cfg, index, renderer, dest, header["format"])
     except Exception as exc:
         raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
     return sorted(p for p in dest.rglob("*") if p.is_file())

@@ -1,4 +1,4 @@
-"""GL backend choice for :mod:`synth.render`: probing, platform lock, rasterizer threads.
+"""GL backend choice for :mod:`synth.render.renderer`: probing, platform lock, rasterizer threads.
 
 Nothing here imports OpenGL: each backend is probed in a subprocess, and the platform PyOpenGL
 is locked to is read from ``sys.modules``. PyOpenGL reads ``PYOPENGL_PLATFORM`` once, at its
@@ -32,7 +32,7 @@ class GLBackendError(RuntimeError):
 
 _PROBE = """
 import sys
-from synth.render import _platform_module
+from synth.render.renderer import _platform_module
 b = sys.argv[1]
 platforms = _platform_module(b)
 if b == "egl":
@@ -51,7 +51,7 @@ p.delete_context()
 def probe_backend(backend: str) -> str | None:
     """Try ``backend`` in a subprocess; ``None`` if it starts, else the error text."""
     env = dict(os.environ, PYOPENGL_PLATFORM=backend)
-    # the probe imports synth.render: find it where this process did (a source checkout on
+    # the probe imports synth.render.renderer: find it where this process did (a source checkout on
     # sys.path, not installed, included)
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env["PYTHONPATH"] = os.pathsep.join(p for p in (here, env.get("PYTHONPATH")) if p)

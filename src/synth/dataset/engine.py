@@ -9,7 +9,7 @@ order sort). Engines:
   :class:`concurrent.futures.ProcessPoolExecutor` whose processes are forked by a
   ``forkserver`` (``spawn`` where there is none). The fork server is a fresh process that
   imports the task's modules (``type(task).__module__`` and the task's optional ``preload``
-  tuple of module names) and warms numba once (:mod:`synth._worker_warm`); it never imports
+  tuple of module names) and warms numba once (:mod:`synth.dataset.warm`); it never imports
   OpenGL, so no GL state is ever forked (a forked GL context is unusable), and each worker
   starts without importing numpy/scipy/trimesh/numba/OpenCV again. It is one per process
   (``multiprocessing``'s), started by the first multi-worker run and reused by the next ones;
@@ -99,7 +99,7 @@ def _tune_malloc() -> None:
 
 # --------------------------------------------------------------------------- local engine
 _WORKER: dict[str, Any] = {}
-_WARM_MODULE = "synth._worker_warm"
+_WARM_MODULE = "synth.dataset.warm"
 
 
 def _threads_per_worker(workers: int) -> int | None:
@@ -134,7 +134,7 @@ def start_worker_server(modules: Sequence[str] = ()) -> None:
     """Start the local engine's fork server now, so that its imports overlap the caller's.
 
     The server (see the module docstring) imports ``modules`` (names of GL-free modules the
-    workers will need, e.g. ``["synth.dataset"]``) plus the engine's own, then waits; the
+    workers will need, e.g. ``["synth.dataset.run"]``) plus the engine's own, then waits; the
     first multi-worker :func:`run_tasks` forks its workers from it instead of starting it then.
     The command line calls this before its own heavy imports when ``--workers`` > 1: a cold
     ``stereoforge dataset`` saves about a second. A no-op where the server already runs (its
@@ -171,7 +171,7 @@ def _ready() -> None:
 def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
     renderer = _WORKER.get("renderer")
     if renderer is None:
-        from synth.render import Renderer
+        from synth.render.renderer import Renderer
 
         task, threads = _WORKER["task"], _WORKER["threads"]
         # the parent resolved the backend on this machine: no second probe per worker; one
@@ -187,13 +187,13 @@ def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
 
 def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tuple[int, dict]]:
     if workers == 1:
-        from synth.render import Renderer
+        from synth.render.renderer import Renderer
 
         with Renderer(task.width, task.height, backend=task.backend) as renderer:
             for index in indices:
                 yield index, task(index, renderer)
         return
-    from synth.render import resolve_backend
+    from synth.render.renderer import resolve_backend
 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_mp_context(task),
                                initializer=_init_worker,
@@ -220,7 +220,7 @@ class _RayWorker:
     """Body of a Ray actor: one renderer, reused for every sample it is given."""
 
     def __init__(self, task: Task) -> None:
-        from synth.render import Renderer
+        from synth.render.renderer import Renderer
 
         _tune_malloc()
         self.task = task

@@ -70,7 +70,7 @@ def bench_render(
     from scenes import get_preset, list_presets
     from synth.export import write_pair
     from synth.pair import render_pair
-    from synth.render import Renderer
+    from synth.render.renderer import Renderer
     from synth.rig import StereoRig
 
     names = list(presets) if presets is not None else [name for name, _ in list_presets()]

@@ -1,6 +1,6 @@
 """Dataset throughput (``stereoforge bench dataset``) and the edge density check.
 
-Three measurements, all returning table rows (print them with :func:`synth.bench.write_table`):
+Three measurements, all returning table rows (print them with :func:`synth.jobs.bench_render.write_table`):
 
 - :func:`bench_dataset`: pairs per second of the dataset job (the per-sample task of
   :func:`synth.dataset.run_dataset` on its engine: drawing, rendering, photometric models,
@@ -100,14 +100,14 @@ def bench_dataset(
         multi-worker run of this call; see below).
 
     The first multi-worker run of a process also starts the engine's fork server (imports and
-    numba set-up, ~1.5 s, see :mod:`synth.engine`) and probes the GL backend; later runs (the
+    numba set-up, ~1.5 s, see :mod:`synth.dataset.engine`) and probes the GL backend; later runs (the
     next configurations, or the same one listed twice) reuse both, so their ``startup_s`` is
     smaller. ``cold`` marks the first such run of this call (cold unless the process ran a
     multi-worker job before).
     """
-    from synth.config import load_config
-    from synth.dataset import _SampleTask
-    from synth.engine import run_tasks
+    from synth.dataset.config import load_config
+    from synth.dataset.run import SampleTask
+    from synth.dataset.engine import run_tasks
 
     loaded = [load_config(name) for name in configs]  # every error before the first run
     rows = []
@@ -116,7 +116,7 @@ def bench_dataset(
         base_rate = base_steady = None
         for w in workers:
             with tempfile.TemporaryDirectory() as tmp:
-                task = _Stamped(_SampleTask(cfg, Path(tmp), "middlebury", backend))
+                task = _Stamped(SampleTask(cfg, Path(tmp), "middlebury", backend))
                 cpu0 = _cpu_seconds()
                 t0 = time.perf_counter()
                 done, stamps = [], []
@@ -159,19 +159,19 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
         per core, so ``render_cpu_ms`` can exceed ``render_ms``).
     """
     from scenes import build_meshes
-    from synth.config import load_config
-    from synth.dataset import _produce
-    from synth.render import Renderer
-    from synth.sampling import draw_sample
+    from synth.dataset.config import load_config
+    from synth.dataset.run import produce_sample
+    from synth.render.renderer import Renderer
+    from synth.dataset.sampling import draw_sample
 
     cfg = load_config(config)
     timings: dict[str, float] = {}
     texture = texture_cpu = 0.0
     with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
-        _produce(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
+        produce_sample(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
         for i in range(count):
-            _produce(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury", timings=timings)
+            produce_sample(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury", timings=timings)
             scene = draw_sample(cfg, i).scene
             t0, c0 = time.perf_counter(), time.process_time()
             build_meshes(scene)
@@ -205,7 +205,7 @@ def check_edge_density(
         ``preset, target, measured, error, frequency_px, probes, seconds`` per pair.
     """
     from scenes import get_preset
-    from synth.render import Renderer
+    from synth.render.renderer import Renderer
     from synth.rig import StereoRig
     from synth.texture_control import match_edge_density, retexture
 

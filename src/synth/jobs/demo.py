@@ -10,7 +10,7 @@ from scenes import list_presets
 from synth.export import prepare_output_dir, resolve_scene, write_pair
 from synth.pair import render_pair
 from synth.preview import contact_sheet
-from synth.render import Renderer
+from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 
 __all__ = ["run_demo"]

@@ -41,16 +41,16 @@ import zlib
 from pathlib import Path
 from typing import Any
 
-from synth.engine import run_tasks
+from synth.dataset.engine import run_tasks
 from synth.io._atomic import atomic_write_bytes
-from synth.study_config import (
+from synth.jobs.study_config import (
     StudyConfig,
     StudyConfigError,
     list_studies,
     load_study_config,
     loads_study_config,
 )
-from synth.study_report import summarize, write_plots
+from synth.jobs.study_report import summarize, write_plots
 
 __all__ = ["StudyConfig", "StudyConfigError", "COLUMNS", "load_study_config",
            "loads_study_config", "list_studies", "run_study", "summarize"]
@@ -132,7 +132,7 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
 
 
 class _CellTask:
-    """Picklable per-cell job for :func:`synth.engine.run_tasks`: computes and writes a cell."""
+    """Picklable per-cell job for :func:`synth.dataset.engine.run_tasks`: computes and writes a cell."""
 
     def __init__(self, cfg: StudyConfig, out: Path, cells: list, backend: str,
                  threads: int | None) -> None:

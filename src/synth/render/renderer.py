@@ -10,7 +10,7 @@ depth ``Z`` interpolated (perspective-correctly) at each pixel centre, and a
 
 pyrender and PyOpenGL are imported lazily: ``PYOPENGL_PLATFORM`` must be set
 before the first ``import OpenGL`` and cannot change afterwards. Backend choice
-lives in :mod:`synth._backend`, scene-to-mesh preparation in :mod:`synth._meshes`.
+lives in :mod:`synth.render.backend`, scene-to-mesh preparation in :mod:`synth.render.meshes`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from synth._backend import (
+from synth.render.backend import (
     BACKENDS,
     DEBIAN_FIX,
     GLBackendError,
@@ -36,7 +36,7 @@ from synth._backend import (
     refuse_late_threads,
     resolve_backend,
 )
-from synth._meshes import Mesh, as_meshes, check_depth_range
+from synth.render.meshes import Mesh, as_meshes, check_depth_range
 
 if TYPE_CHECKING:
     from synth.rig import StereoRig

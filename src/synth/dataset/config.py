@@ -129,7 +129,7 @@ SCHEMA: Mapping[str, Mapping[str, _Key]] = MappingProxyType({
     },
 })
 
-#: Shipped example configurations (``src/synth/configs/<name>.toml``).
+#: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
 EXAMPLES = ("planes", "texture-sweep", "flying")
 
 
@@ -382,7 +382,7 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
     Traceback (most recent call last):
     ...
-    synth.config.ConfigError: my.toml:2: [scene] unknown key 'ocluders'; allowed keys: base, texture, frequency_px, contrast, edge_density, occluders, occluder_size, occluder_depth, occluder_kind
+    synth.dataset.config.ConfigError: my.toml:2: [scene] unknown key 'ocluders'; allowed keys: base, texture, frequency_px, contrast, edge_density, occluders, occluder_size, occluder_depth, occluder_kind
     """
     try:
         data = tomllib.loads(text)
@@ -435,7 +435,7 @@ def load_config(config: str | Path | DatasetConfig) -> DatasetConfig:
                         f"{type(config).__name__}")
     path = Path(config)
     if path.suffix.lower() != ".toml" and str(config) in EXAMPLES:
-        res = resources.files("synth") / "configs" / f"{config}.toml"
+        res = resources.files("synth.dataset") / "configs" / f"{config}.toml"
         return loads_config(res.read_text(encoding="utf-8"), source=f"{config}.toml")
     if not path.is_file():
         raise FileNotFoundError(f"dataset config {path} does not exist; pass a .toml file or "

@@ -16,7 +16,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec, get_preset
-from synth.config import DatasetConfig
+from synth.dataset.config import DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
 
@@ -112,7 +112,7 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
 
     Examples
     --------
-    >>> from synth.config import loads_config
+    >>> from synth.dataset.config import loads_config
     >>> cfg = loads_config('[scene]\\nfrequency_px = {uniform = [0.05, 0.1]}')
     >>> d = draw_sample(cfg, 3)
     >>> d == draw_sample(cfg, 3), 0.05 <= d.params["scene.frequency_px"] <= 0.1

@@ -1,0 +1,41 @@
+"""The ``stereoforge`` command line: a thin click layer, one module per command family.
+
+Every subcommand parses its options (shared ones are defined once, in :mod:`synth.cli.options`)
+and calls one library function; errors in the input are reported as ``Error: ...`` with exit
+status 2 (click's convention for usage errors) and no traceback. Nothing in the library imports
+this package.
+
+- :mod:`synth.cli.rendering` — ``presets``, ``render``, ``demo``
+- :mod:`synth.cli.datasets` — ``dataset``
+- :mod:`synth.cli.matching` — ``match``, ``eval``
+- :mod:`synth.cli.jobs` — ``paper``, ``study``, ``golden``
+- :mod:`synth.cli.bench` — ``bench render|match|paper|dataset``
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from synth.cli.bench import bench
+from synth.cli.datasets import dataset
+from synth.cli.jobs import golden, paper, study
+from synth.cli.matching import eval_cmd, match_cmd
+from synth.cli.rendering import demo, presets, render
+
+__all__ = ["main"]
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="stereoforge")
+def main() -> None:
+    """stereoforge: labelled stereo data with exact ground truth, and census matchers."""
+
+
+for _command in (bench, dataset, demo, eval_cmd, golden, match_cmd, paper, presets, render, study):
+    main.add_command(_command)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

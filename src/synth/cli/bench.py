@@ -1,0 +1,102 @@
+"""``stereoforge bench``: speed tables (Markdown and CSV) naming the machine they ran on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from synth.cli.options import backend_option, fail, out_dir_option
+
+__all__ = ["bench"]
+
+
+@click.group()
+def bench() -> None:
+    """Benchmarks: print a table and write it (Markdown and CSV) under --out."""
+
+
+@bench.command("render")
+@out_dir_option(default="out/bench")
+@click.option("--pairs", default=20, show_default=True, type=click.IntRange(min=1),
+              help="Pairs rendered per preset and size.")
+@click.option("--sizes", default="640x480,1280x960", show_default=True)
+@backend_option
+@click.option("--threads", default="0", show_default=True,
+              help="llvmpipe rasterizer threads: 0 renders in the calling thread (one core, "
+                   "as each dataset worker does); 'auto' keeps the driver's one per core.")
+def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
+    """Pairs per second for every preset: render + GT + masks + writing, one process."""
+    from synth.jobs.bench_render import bench_render, parse_sizes, write_table
+
+    if threads == "auto":
+        n_threads = None
+    elif threads.isdigit():
+        n_threads = int(threads)
+    else:
+        fail(ValueError(f"--threads must be 'auto' or an int >= 0, got {threads!r}"))
+    try:
+        rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend,
+                            threads=n_threads, progress=True)
+    except ValueError as exc:
+        fail(exc)
+    click.echo(write_table(rows, Path(out), "render"))
+
+
+@bench.command("match")
+@out_dir_option(default="out/bench")
+@click.option("--repeats", default=3, show_default=True, type=click.IntRange(min=1))
+def bench_match_cmd(out, repeats) -> None:
+    """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
+    from synth.jobs.bench_match import bench_match, peak_memory
+    from synth.jobs.bench_render import write_table
+
+    rows = bench_match(repeats=repeats)
+    click.echo(write_table(rows, Path(out), "match"))
+    memory = []
+    for method, aggregate, lr_check in (("ct", None, False), ("ct", 5, True), ("sct", None, False)):
+        m = peak_memory(width=1280, height=960, max_disparity=256, window=21, method=method,
+                        aggregate=aggregate, lr_check=lr_check)
+        memory.append({"case": f"{method.upper()} 21x21, 1280x960, D=256"
+                               + (f", aggregate {aggregate}, LR check" if aggregate else ""),
+                       **m, "target_mb": 1024})
+    click.echo(write_table(memory, Path(out), "match-memory"))
+
+
+@bench.command("paper")
+@out_dir_option(default="out/bench")
+def bench_paper_cmd(out) -> None:
+    """The paper's methods (CTHW, AWCT, AWSCT) against CT/SCT at the same window, same run."""
+    from synth.jobs.bench_paper import bench_paper_methods
+    from synth.jobs.bench_render import write_table
+
+    click.echo(write_table(bench_paper_methods(), Path(out), "paper"))
+
+
+@bench.command("dataset")
+@out_dir_option(default="out/bench")
+@click.option("--count", default=40, show_default=True, type=click.IntRange(min=1))
+@click.option("--configs", default="planes,texture-sweep,flying", show_default=True,
+              help="Comma-separated example names or config paths; a name listed twice is "
+                   "run twice (the second run finds the worker server started).")
+@click.option("--workers", "workers_text", default="1,2", show_default=True,
+              help="Comma-separated worker counts; efficiency is relative to the first.")
+@backend_option
+def bench_dataset_cmd(out, count, configs, workers_text, backend) -> None:
+    """Dataset pairs/s at 640x480 with 1 and 2 workers (writing included) and scaling."""
+    from synth.jobs.bench_render import write_table
+    from synth.jobs.bench_dataset import bench_dataset
+
+    names = [c.strip() for c in configs.split(",") if c.strip()]
+    parts = [w.strip() for w in workers_text.split(",") if w.strip()]
+    if not names:
+        fail(ValueError("--configs is empty; give example names such as planes,flying"))
+    if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
+        fail(ValueError(f"--workers must be positive ints separated by commas, got "
+                         f"{workers_text!r}"))
+    try:
+        rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
+                             backend=backend, progress=True)
+    except (ValueError, FileNotFoundError) as exc:
+        fail(exc)
+    click.echo(write_table(rows, Path(out), "dataset"))

@@ -1,0 +1,79 @@
+"""``stereoforge match`` and ``eval``: run a matcher, score a disparity map."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from synth.cli.options import fail, method_option
+
+__all__ = ["eval_cmd", "match_cmd"]
+
+
+@click.command("match")
+@click.argument("left", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("right", type=click.Path(dir_okay=False, path_type=Path))
+@method_option
+@click.option("--window", default=9, show_default=True, type=int,
+              help="Odd window size (the largest window for awct/awsct).")
+@click.option("--max-disp", "max_disp", default=64, show_default=True, type=int,
+              help="Number of disparities searched: d = 0 .. max-disp - 1.")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Disparity map to write (.pfm, inf where invalid).")
+@click.option("--lr-check", is_flag=True, help="Left-right consistency check (failures become inf).")
+@click.option("--subpixel", is_flag=True, help="Parabola subpixel refinement.")
+@click.option("--aggregate", default=None, type=int, help="Box aggregation window (default: none).")
+def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, aggregate) -> None:
+    """Match LEFT and RIGHT images and write the left disparity map to --out."""
+    import time
+
+    from matcher import match
+    from matcher.io import read_image, write_pfm
+
+    try:
+        left_img, right_img = read_image(left), read_image(right)
+        t0 = time.perf_counter()
+        result = match(left_img, right_img, method=method, window=window, max_disparity=max_disp,
+                       lr_check=lr_check, subpixel=subpixel, aggregate=aggregate)
+        seconds = time.perf_counter() - t0
+        if out.suffix.lower() != ".pfm":
+            raise ValueError(f"--out must be a .pfm file (got {out.name})")
+        write_pfm(out, result.disparity)
+    except (ValueError, FileNotFoundError, TypeError) as exc:
+        fail(exc)
+    invalid = 100.0 * float((~(result.disparity < float("inf"))).mean())
+    click.echo(f"{method} {window}x{window} D={max_disp}: {seconds * 1e3:.1f} ms, "
+               f"invalid {invalid:.2f} %, wrote {out}")
+    if result.ops is not None:
+        click.echo(f"operations: {result.ops}")
+
+
+@click.command("eval")
+@click.argument("disp", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("gt", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--gt-divisor", default=None, type=float,
+              help="Divide an 8/16-bit PNG ground truth by this (e.g. 3 for Middlebury third size).")
+@click.option("--disp-divisor", default=None, type=float, help="Same, for a PNG estimate.")
+@click.option("--mask", default=None, type=click.Path(dir_okay=False, path_type=Path),
+              help="Occlusion mask PNG (255 = non-occluded); adds the nonocc region.")
+@click.option("--delta", default=3.0, show_default=True, type=float, help="PoBMP error threshold (px).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json) -> None:
+    """Compare an estimated disparity map DISP with the ground truth GT (PFM or PNG)."""
+    from synth.jobs.evaluate import evaluate_files
+
+    try:
+        report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
+                                mask=mask, delta=delta)
+    except (ValueError, FileNotFoundError) as exc:
+        fail(exc)
+    if as_json:
+        click.echo(json.dumps(report, indent=2, sort_keys=True))
+        return
+    keys = list(next(iter(report.values())).keys())
+    click.echo("region   " + " ".join(f"{k:>9}" for k in keys))
+    for region, metrics in report.items():
+        click.echo(f"{region:<8} " + " ".join(f"{metrics[k]:>9.3f}" if isinstance(metrics[k], float)
+                                              else f"{metrics[k]:>9}" for k in keys))

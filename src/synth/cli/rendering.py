@@ -1,0 +1,91 @@
+"""``stereoforge presets``, ``render`` and ``demo``: scenes and single pairs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from synth.cli.options import (
+    backend_option,
+    fail,
+    format_option,
+    out_dir_option,
+    overwrite_option,
+    size_options,
+)
+
+__all__ = ["demo", "presets", "render"]
+
+
+@click.command()
+def presets() -> None:
+    """List the built-in scenes with a one-line description each."""
+    from scenes import list_presets
+
+    rows = list_presets()
+    width = max(len(name) for name, _ in rows)
+    for name, description in rows:
+        click.echo(f"{name:<{width}}  {description}")
+
+
+@click.command()
+@click.argument("scene", required=False)
+@out_dir_option(help="Output directory (must be empty unless --overwrite).")
+@size_options(width=640, height=480)
+@click.option("--fx", default=None, type=float, help="Focal length in pixels [default: 600·width/640].")
+@click.option("--baseline", default=0.1, show_default=True, type=float, help="Baseline in metres.")
+@click.option("--seed", default=None, type=int, help="Seed of a preset [default: 0].")
+@format_option
+@backend_option
+@overwrite_option
+@click.option("--from-manifest", "from_manifest", nargs=2, default=None,
+              type=(click.Path(file_okay=False, path_type=Path), int), metavar="DIR INDEX",
+              help="Re-render sample INDEX of the dataset in DIR alone (same bytes), instead of SCENE.")
+def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite,
+           from_manifest) -> None:
+    """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
+    from synth import StereoRig, render_pair, write_pair
+    from synth.export import prepare_output_dir, resolve_scene
+
+    if from_manifest is not None:
+        from synth import render_from_manifest
+
+        if scene is not None:
+            fail(ValueError("give either SCENE or --from-manifest DIR INDEX, not both"))
+        try:
+            written = render_from_manifest(from_manifest[0], from_manifest[1], out=out,
+                                           overwrite=overwrite, backend=backend)
+        except (ValueError, FileNotFoundError) as exc:
+            fail(exc)
+        click.echo(f"wrote {len(written)} files to {out}")
+        return
+    if scene is None:
+        fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
+    try:
+        spec, seed = resolve_scene(scene, seed=seed)
+        rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
+        pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
+        out = prepare_output_dir(out, overwrite=overwrite)
+        written = write_pair(pair, out, scene=spec, seed=seed, fmt=fmt)
+    except (ValueError, FileNotFoundError) as exc:
+        fail(exc)
+    click.echo(f"wrote {len(written)} files to {out}")
+
+
+@click.command()
+@out_dir_option(default="out/demo")
+@size_options(width=320, height=240, minimum=16)
+@click.option("--seed", default=0, show_default=True, type=int)
+@backend_option
+@overwrite_option
+def demo(out, width, height, seed, backend, overwrite) -> None:
+    """Render every preset into OUT/<preset>/ and draw OUT/contact_sheet.png."""
+    from synth.jobs.demo import run_demo
+
+    try:
+        sheet = run_demo(out, width=width, height=height, seed=seed, backend=backend,
+                         overwrite=overwrite, progress=True)
+    except ValueError as exc:
+        fail(exc)
+    click.echo(f"contact sheet: {sheet}")

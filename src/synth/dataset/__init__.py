@@ -1,0 +1,58 @@
+"""Datasets: configurations, per-sample sampling, the worker engines and the resumable run.
+
+- :mod:`synth.dataset.config` — the TOML/JSON dataset configuration and its schema.
+- :mod:`synth.dataset.sampling` — what sample ``i`` draws from the configuration (seeded by ``i``).
+- :mod:`synth.dataset.engine` — local process pool (fork server) and Ray engines.
+- :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
+- :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.
+- ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
+  and the texture-versus-window study).
+
+Names load from their modules on first use (:mod:`synth._lazy`): ``synth.dataset.engine`` alone
+stays light, for the command line and the worker server.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from synth._lazy import lazy_namespace
+
+if TYPE_CHECKING:
+    from synth.dataset.config import (
+        ConfigError,
+        DatasetConfig,
+        config_from_dict,
+        list_examples,
+        load_config,
+        loads_config,
+    )
+    from synth.dataset.engine import ENGINES
+    from synth.dataset.run import (
+        DatasetError,
+        DatasetRun,
+        SampleError,
+        read_manifest,
+        render_from_manifest,
+        run_dataset,
+    )
+
+#: Public name -> the module that defines it.
+_EXPORTS = {
+    "ConfigError": "synth.dataset.config",
+    "DatasetConfig": "synth.dataset.config",
+    "DatasetError": "synth.dataset.run",
+    "DatasetRun": "synth.dataset.run",
+    "ENGINES": "synth.dataset.engine",
+    "SampleError": "synth.dataset.run",
+    "config_from_dict": "synth.dataset.config",
+    "list_examples": "synth.dataset.config",
+    "load_config": "synth.dataset.config",
+    "loads_config": "synth.dataset.config",
+    "read_manifest": "synth.dataset.run",
+    "render_from_manifest": "synth.dataset.run",
+    "run_dataset": "synth.dataset.run",
+}
+
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_namespace(__name__, _EXPORTS, globals())

@@ -1,0 +1,7 @@
+"""The output layouts :func:`synth.write_pair` writes (a leaf: the CLI reads it without importing
+the writers)."""
+
+__all__ = ["FORMATS"]
+
+#: ``middlebury``: Middlebury 2014 scene folders; ``kitti``: KITTI 2015 (see docs/formats.md).
+FORMATS = ("middlebury", "kitti")
