@@ -7,7 +7,7 @@ PYTHON    ?= python3
 VENV      ?= .venv
 PY        := $(VENV)/bin/python
 PIP       := $(PY) -m pip
-SYS_PKGS  := python3-venv libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libosmesa6 libglu1-mesa
+SYS_PKGS  := python3-venv libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgles2 libosmesa6 libglu1-mesa
 PYTEST_ARGS ?=
 
 .PHONY: demo test setup system venv bench clean
@@ -39,9 +39,6 @@ $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
 	$(PIP) install --quiet -e '.[test]'
-	# pyrender pins PyOpenGL==3.1.0 (no OSMesa, breaks on numpy 2): install it
-	# without its pins; its real dependencies are listed in pyproject.toml.
-	$(PIP) install --quiet --no-deps 'pyrender==0.1.45'
 	touch $@
 
 bench: setup

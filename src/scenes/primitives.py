@@ -6,7 +6,7 @@ vertices are already in the world (left camera) frame. Its visual is a
 and a white :class:`~trimesh.visual.material.SimpleMaterial` (the image is not darkened by
 trimesh's default grey diffuse colour).
 
-UVs follow OpenGL (``v = 1`` is image row 0, as pyrender uploads images flipped). Surface
+UVs follow OpenGL (``v = 1`` is image row 0: GL textures are uploaded bottom row first). Surface
 coordinates are laid out in metres, so a texture frequency in cycles per metre is a frequency on
 the surface: exactly on planes, boxes and cylinder sides and caps, along the equator and every
 meridian of a sphere (longitude lines converge toward the poles), along the centre line of a

@@ -152,7 +152,7 @@ def _mask_kernel(dl: np.ndarray, dr: np.ndarray, lerp_tol: float, edge_tol: floa
 @functools.cache
 def _versions() -> dict[str, str]:
     out = {}
-    for dist in ("stereoforge", "numpy", "trimesh", "pyrender", "PyOpenGL"):
+    for dist in ("stereoforge", "numpy", "trimesh", "PyOpenGL"):
         try:
             out[dist] = importlib.metadata.version(dist)
         except importlib.metadata.PackageNotFoundError:  # pragma: no cover

@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -38,19 +39,40 @@ def test_bad_threads_is_a_value_error(threads: object) -> None:
         Renderer(64, 48, threads=threads)  # type: ignore[arg-type]
 
 
-def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyPatch) -> None:
+def _fake_probe(monkeypatch: pytest.MonkeyPatch, result: Callable[[str], tuple[str, str]]) -> None:
+    """The probe subprocess answers ``result(backend)`` (stdout, stderr) with exit status 1."""
+    def fake_run(cmd, **kwargs):
+        return subprocess.CompletedProcess(cmd, 1, *result(cmd[-1]))
+
     monkeypatch.setattr(backend_mod, "platform_in_use", lambda: None)
-    monkeypatch.setattr(backend_mod, "probe_backend", lambda b: f"cannot load lib{b}")
+    monkeypatch.setattr(backend_mod.subprocess, "run", fake_run)
+    monkeypatch.setattr(backend_mod, "probe_backend", backend_mod.probe_backend.__wrapped__)
+
+
+def test_no_backend_error_names_each_backend_and_fix(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a failure the probe does not recognise: its last line, and the Debian packages
+    _fake_probe(monkeypatch, lambda b: ("", f"Traceback ...\nOSError: cannot load lib{b}\n"))
     with pytest.raises(GLBackendError) as info:
         Renderer(64, 48, backend="auto")
     msg = str(info.value)
     assert isinstance(info.value, RuntimeError)
-    assert "egl: cannot load libegl" in msg and "osmesa: cannot load libosmesa" in msg
+    assert "egl: OSError: cannot load libegl" in msg
+    assert "osmesa: OSError: cannot load libosmesa" in msg
     assert "libegl1 libegl-mesa0 libgl1-mesa-dri" in msg and "libosmesa6" in msg
 
 
+def test_a_missing_python_package_gets_pip_not_apt(monkeypatch: pytest.MonkeyPatch) -> None:
+    # what the probe prints on a GLBackendError of synth.render.context: the problem and its own fix
+    tagged = backend_mod._PROBE_TAG + json.dumps(["PyOpenGL is not installed", "pip install x"])
+    _fake_probe(monkeypatch, lambda b: (f"{tagged}\n", ""))
+    with pytest.raises(GLBackendError) as info:
+        Renderer(64, 48, backend="osmesa")
+    assert str(info.value) == ("no OpenGL backend could start; tried:\n"
+                               "  osmesa: PyOpenGL is not installed\n    fix: pip install x")
+
+
 def test_probe_finds_synth_where_this_process_did(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The probe subprocess imports synth.render.renderer: its PYTHONPATH leads with synth's parent."""
+    """The probe subprocess imports synth.render.context: its PYTHONPATH leads with synth's parent."""
     seen = {}
 
     def fake_run(cmd, *, env, **kwargs):
@@ -60,7 +82,9 @@ def test_probe_finds_synth_where_this_process_did(monkeypatch: pytest.MonkeyPatc
     monkeypatch.setattr(backend_mod.subprocess, "run", fake_run)
     monkeypatch.setenv("PYTHONPATH", "/elsewhere")
     assert backend_mod.probe_backend.__wrapped__("egl") is None
-    src = os.path.dirname(os.path.dirname(os.path.abspath(backend_mod.__file__)))
+    import synth
+
+    src = os.path.dirname(os.path.dirname(os.path.abspath(synth.__file__)))  # synth's parent
     assert seen["env"]["PYTHONPATH"].split(os.pathsep) == [src, "/elsewhere"]
     assert seen["env"]["PYOPENGL_PLATFORM"] == "egl" and seen["cmd"][-1] == "egl"
 

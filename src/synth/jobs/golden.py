@@ -80,7 +80,7 @@ _FORMAT = 1
 _SCENE_FILES = ("im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "mask0nocc.png", "calib.txt",
                 "scene.json")
 _VERSION_DISTS = ("stereoforge", "numpy", "opencv-python-headless", "numba", "scikit-image",
-                  "scipy", "trimesh", "pyrender", "PyOpenGL")
+                  "scipy", "trimesh", "PyOpenGL")
 
 
 # --------------------------------------------------------------------------- results

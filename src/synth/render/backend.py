@@ -8,6 +8,7 @@ first import; Mesa's llvmpipe reads ``LP_NUM_THREADS`` once, at the first contex
 from __future__ import annotations
 
 import functools
+import json
 import numbers
 import os
 import subprocess
@@ -16,44 +17,60 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 __all__ = ["BACKENDS", "DEBIAN_FIX", "GLBackendError", "check_backend_name", "check_threads",
-           "choose_backend", "driver_threads", "refuse_late_threads", "resolve_backend"]
+           "choose_backend", "driver_threads", "fix_line", "platform_in_use", "refuse_late_threads",
+           "resolve_backend"]
 
 #: Backends in the order ``backend="auto"`` tries them.
 BACKENDS = ("egl", "osmesa")
+#: The Debian packages that give each backend its libraries and Mesa's driver.
 DEBIAN_FIX = {
-    "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri",
+    "egl": "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0",
     "osmesa": "apt-get install libosmesa6",
 }
 
 
+def fix_line(fix: str) -> str:
+    """``fix: <command>``, labelled Debian's for an ``apt-get`` command."""
+    return f"fix (Debian): {fix}" if fix.startswith("apt-get") else f"fix: {fix}"
+
+
 class GLBackendError(RuntimeError):
-    """No OpenGL backend could be started (the message names each one tried and the fix)."""
+    """No OpenGL backend could be started (the message names each one tried and the fix).
+
+    ``fix``, where known, is the command that repairs it (``pip install ...`` for a missing
+    Python package, ``apt-get install ...`` for a missing system library); the message ends with it.
+    """
+
+    def __init__(self, message: str, *, fix: str | None = None) -> None:
+        super().__init__(message if fix is None else f"{message}\n  {fix_line(fix)}")
+        self.problem, self.fix = message, fix
 
 
-_PROBE = """
-import sys
-from synth.render.renderer import _platform_module
-b = sys.argv[1]
-platforms = _platform_module(b)
-if b == "egl":
-    p = platforms.EGLPlatform(8, 8, device=platforms.get_device_by_index(0))
-else:
-    p = platforms.OSMesaPlatform(8, 8)
-p.init_context()
-p.make_current()
+# Prints nothing but the renderer's name on success; on a GLBackendError, the tag then the
+# problem and its fix as JSON (anything else fails with a traceback).
+_PROBE_TAG = "stereoforge-probe-error:"
+_PROBE = f"""
+import json, sys
+from synth.render.backend import GLBackendError
+from synth.render.context import open_context
+try:
+    context = open_context(sys.argv[1])
+except GLBackendError as exc:
+    print({_PROBE_TAG!r} + json.dumps([exc.problem, exc.fix]))
+    sys.exit(1)
 from OpenGL import GL
 print(GL.glGetString(GL.GL_RENDERER).decode())
-p.delete_context()
+context.destroy()
 """
 
 
 @functools.cache
 def probe_backend(backend: str) -> str | None:
-    """Try ``backend`` in a subprocess; ``None`` if it starts, else the error text."""
+    """Try ``backend`` in a subprocess; ``None`` if it starts, else the error and its fix."""
     env = dict(os.environ, PYOPENGL_PLATFORM=backend)
-    # the probe imports synth.render.renderer: find it where this process did (a source checkout on
-    # sys.path, not installed, included)
-    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    # the probe imports synth.render.context: find it where this process did (a source checkout on
+    # sys.path, not installed, included): the folder holding the synth package
+    here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env["PYTHONPATH"] = os.pathsep.join(p for p in (here, env.get("PYTHONPATH")) if p)
     try:
         out = subprocess.run(
@@ -67,8 +84,13 @@ def probe_backend(backend: str) -> str | None:
         return f"probe failed to run: {exc}"
     if out.returncode == 0:
         return None
-    lines = [ln for ln in (out.stderr or out.stdout).strip().splitlines() if ln.strip()]
-    return lines[-1] if lines else f"exit status {out.returncode}"
+    tagged = [ln for ln in out.stdout.splitlines() if ln.startswith(_PROBE_TAG)]
+    if tagged:
+        problem, fix = json.loads(tagged[-1][len(_PROBE_TAG):])
+    else:  # the driver failed in a way we do not recognise: the last line, the usual fix
+        lines = [ln for ln in (out.stderr or out.stdout).strip().splitlines() if ln.strip()]
+        problem, fix = (lines[-1] if lines else f"exit status {out.returncode}"), DEBIAN_FIX[backend]
+    return problem if fix is None else f"{problem}\n    {fix_line(fix)}"
 
 
 def platform_in_use() -> str | None:
@@ -119,7 +141,7 @@ def choose_backend(backend: str, *, probe: bool = True) -> str:
         raise GLBackendError(
             f"backend={backend!r} is not available: PyOpenGL was already imported in this "
             f"process with the {locked!r} platform and cannot switch; {hint} create the Renderer "
-            "in a fresh process before anything imports OpenGL or pyrender (PyOpenGL reads "
+            "in a fresh process before anything imports OpenGL (PyOpenGL reads "
             "PYOPENGL_PLATFORM once, at import)"
         )
     if not probe and backend != "auto":
@@ -129,7 +151,7 @@ def choose_backend(backend: str, *, probe: bool = True) -> str:
         err = probe_backend(b)
         if err is None:
             return b
-        failures.append(f"  {b}: {err}\n    fix (Debian): {DEBIAN_FIX[b]}")
+        failures.append(f"  {b}: {err}")
     raise GLBackendError(
         "no OpenGL backend could start; tried:\n" + "\n".join(failures)
     )

@@ -1,23 +1,22 @@
 """The only GL module: context lifetime, colour and exact depth.
 
-Both passes are our own shader programs in one GL context (pyrender only creates
-the EGL/OSMesa context). Colour: a view-independent Lambert shading baked into
+Both passes are our own shader programs in one GL context (made by
+:mod:`synth.render.context` from PyOpenGL's EGL or OSMesa bindings). Colour: a view-independent Lambert shading baked into
 per-vertex colours times a mipmapped texture, 4x MSAA resolved to the pixel
 average, so a surface point has the same colour in both views. Ground truth:
 no multisampling, a 32-bit float colour target that receives the camera-space
 depth ``Z`` interpolated (perspective-correctly) at each pixel centre, and a
 32-bit float depth buffer. See ``docs/ground-truth.md`` for why.
 
-pyrender and PyOpenGL are imported lazily: ``PYOPENGL_PLATFORM`` must be set
-before the first ``import OpenGL`` and cannot change afterwards. Backend choice
-lives in :mod:`synth.render.backend`, scene-to-mesh preparation in :mod:`synth.render.meshes`.
+PyOpenGL is imported lazily: ``PYOPENGL_PLATFORM`` must be set before the first
+``import OpenGL`` and cannot change afterwards. Backend choice lives in
+:mod:`synth.render.backend`, context creation in :mod:`synth.render.context`, scene-to-mesh
+preparation in :mod:`synth.render.meshes`.
 """
 
 from __future__ import annotations
 
 import ctypes
-import os
-import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -36,6 +35,7 @@ from synth.render.backend import (
     refuse_late_threads,
     resolve_backend,
 )
+from synth.render.context import open_context
 from synth.render.meshes import Mesh, as_meshes, check_depth_range
 
 if TYPE_CHECKING:
@@ -411,31 +411,6 @@ class _Passes:
         return out[::-1].copy()  # GL rows run bottom-up
 
 
-def _platform_module(backend: str) -> Any:
-    """pyrender's ``platforms.egl`` or ``platforms.osmesa`` module (context creation only).
-
-    Loaded without running ``pyrender/__init__.py``, which imports trimesh, scipy, networkx and
-    pyglet (~1 s, per worker and per backend probe) for the scene graph we do not use: the
-    platform modules need only PyOpenGL and six. They are loaded under a private package name
-    so that a later ``import pyrender`` still gets the real package; if pyrender is already
-    imported, its own modules are used.
-    """
-    import importlib
-    import importlib.util
-    import types
-
-    name = "pyrender" if "pyrender" in sys.modules else "_stereoforge_pyrender"
-    if name not in sys.modules:
-        spec = importlib.util.find_spec("pyrender")
-        if spec is None or not spec.submodule_search_locations:
-            raise ImportError("pyrender is not installed; install stereoforge's dependencies "
-                              "(pip install pyrender --no-deps, see the Makefile)")
-        package = types.ModuleType(name, "pyrender's package path only (platform modules)")
-        package.__path__ = list(spec.submodule_search_locations)
-        sys.modules[name] = package
-    return importlib.import_module(f"{name}.platforms.{backend}")
-
-
 # ---------------------------------------------------------------------------- Renderer
 class Renderer:
     """An offscreen OpenGL context that renders views with exact depth.
@@ -469,7 +444,7 @@ class Renderer:
     ------
     GLBackendError
         If no requested backend starts (the message names each backend tried,
-        its error and the Debian package that fixes it).
+        its error and the fix: a pip or a Debian package).
 
     Examples
     --------
@@ -496,12 +471,9 @@ class Renderer:
         self._closed = True
         self._held: dict[int, tuple[Any, _GLScene]] = {}
         self.backend = choose_backend(backend, probe=probe)
-        os.environ["PYOPENGL_PLATFORM"] = self.backend  # read once, by PyOpenGL's first import
         try:
             with driver_threads(threads):
-                self._platform = self._make_platform()
-                self._platform.init_context()
-            self._platform.make_current()
+                self._context = open_context(self.backend)
             from OpenGL import GL
 
             GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
@@ -509,21 +481,15 @@ class Renderer:
             self._passes = _Passes(self.width, self.height)
             self.gl_renderer = GL.glGetString(GL.GL_RENDERER).decode()
             self.gl_version = GL.glGetString(GL.GL_VERSION).decode()
-        except GLBackendError:
-            raise
+        except GLBackendError as exc:
+            raise GLBackendError(f"the {self.backend} backend failed to start: {exc.problem}",
+                                 fix=exc.fix) from exc
         except Exception as exc:
             raise GLBackendError(
                 f"the {self.backend} backend failed to start in this process: "
-                f"{type(exc).__name__}: {exc}\n  fix (Debian): {DEBIAN_FIX[self.backend]}"
+                f"{type(exc).__name__}: {exc}", fix=DEBIAN_FIX[self.backend]
             ) from exc
         self._closed = False
-
-    def _make_platform(self) -> Any:
-        platforms = _platform_module(self.backend)
-        if self.backend == "egl":
-            return platforms.EGLPlatform(self.width, self.height,
-                                         device=platforms.get_device_by_index(0))
-        return platforms.OSMesaPlatform(self.width, self.height)
 
     # -------------------------------------------------------------- lifetime
     def __enter__(self) -> Renderer:
@@ -536,36 +502,13 @@ class Renderer:
         """Free every GL resource and the context (idempotent)."""
         if self._closed:
             return
-        self._platform.make_current()
+        self._context.make_current()
         for _, up in list(self._held.values()):
             self._passes.release(up)
         self._held.clear()
         self._passes.delete()
-        self._destroy_context()
+        self._context.destroy()  # only ours: the EGL display, shared by all, stays initialised
         self._closed = True
-
-    def _destroy_context(self) -> None:
-        """Destroy only our context.
-
-        pyrender's ``EGLPlatform.delete_context`` also calls ``eglTerminate`` on
-        the display, which every EGL context of the process shares: it would
-        break the other open renderers. The display stays initialised for the
-        life of the process.
-        """
-        p = self._platform
-        if self.backend == "egl":
-            from OpenGL import EGL
-
-            EGL.eglMakeCurrent(p._egl_display, EGL.EGL_NO_SURFACE, EGL.EGL_NO_SURFACE,
-                               EGL.EGL_NO_CONTEXT)
-            EGL.eglDestroyContext(p._egl_display, p._egl_context)
-            p._egl_context = p._egl_display = None  # makes pyrender's __del__ a no-op
-        else:
-            from OpenGL.osmesa import OSMesaDestroyContext
-
-            OSMesaDestroyContext(p._context)
-            p._context = None
-            p.delete_context = lambda: None  # pyrender's __del__ would destroy it again
 
     def _check_open(self) -> None:
         if self._closed:
@@ -586,14 +529,14 @@ class Renderer:
             yield dict(self._held[key][1].meta)
             return
         meshes, background, meta = as_meshes(scene)
-        self._platform.make_current()
+        self._context.make_current()
         up = self._passes.upload(meshes, {**meta, "background": background})
         self._held[key] = (scene, up)  # keeps `scene` alive so its id is not reused
         try:
             yield {k: v for k, v in up.meta.items() if k != "background"}
         finally:
             del self._held[key]
-            self._platform.make_current()
+            self._context.make_current()
             self._passes.release(up)
 
     # -------------------------------------------------------------- render
@@ -633,7 +576,7 @@ class Renderer:
             return self._render(up, rig, eye)
 
     def _render(self, up: _GLScene, rig: StereoRig, eye: str) -> ViewRender:
-        self._platform.make_current()
+        self._context.make_current()
         if (rig.width, rig.height) != (self.width, self.height):
             self.width, self.height = rig.width, rig.height
             self._passes.resize(rig.width, rig.height)
