@@ -1,4 +1,4 @@
-"""The only GL module: context lifetime, colour and exact depth.
+"""The renderer: one GL context for its lifetime, two passes per view (colour, exact depth).
 
 Both passes are our own shader programs in one GL context (made by
 :mod:`synth.render.context` from PyOpenGL's EGL or OSMesa bindings). Colour: a view-independent Lambert shading baked into
@@ -16,10 +16,9 @@ preparation in :mod:`synth.render.meshes`.
 
 from __future__ import annotations
 
-import ctypes
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -36,7 +35,8 @@ from synth.render.backend import (
     resolve_backend,
 )
 from synth.render.context import open_context
-from synth.render.meshes import Mesh, as_meshes, check_depth_range
+from synth.render.meshes import as_meshes, check_depth_range
+from synth.render.passes import GLScene, Passes
 
 if TYPE_CHECKING:
     from synth.rig import StereoRig
@@ -82,333 +82,6 @@ def _camera_pose(rig: StereoRig, eye: str) -> np.ndarray:
     if eye == "right":
         pose[0, 3] = rig.baseline
     return pose
-
-
-# ---------------------------------------------------------------------------- GL passes
-#: Samples per pixel of the colour pass (its resolve averages them: area antialiasing).
-_MSAA_SAMPLES = 4
-# Interleaved vertex layout shared by both passes: position (3), texcoord (2), shade (3).
-_STRIDE = 8 * 4
-
-_COLOR_VERT = """#version 330 core
-layout(location = 0) in vec3 position;
-layout(location = 1) in vec2 texcoord;
-layout(location = 2) in vec3 shade;
-uniform mat4 PV;
-out vec2 uv;
-out vec3 mult;
-void main() {
-    gl_Position = PV * vec4(position, 1.0);
-    uv = texcoord;
-    mult = shade;
-}
-"""
-_COLOR_FRAG = """#version 330 core
-in vec2 uv;
-in vec3 mult;
-uniform sampler2D tex;
-layout(location = 0) out vec4 out_color;
-void main() {
-    out_color = vec4(clamp(texture(tex, uv).rgb * mult, 0.0, 1.0), 1.0);
-}
-"""
-_GT_VERT = """#version 330 core
-layout(location = 0) in vec3 position;
-uniform mat4 PV;
-out float z_cam;
-void main() {
-    gl_Position = PV * vec4(position, 1.0);
-    z_cam = position.z;  // both cameras share the world's orientation: Z_cam = Z_world
-}
-"""
-_GT_FRAG = """#version 330 core
-in float z_cam;
-uniform float inv_far;
-layout(location = 0) out float out_z;
-void main() {
-    out_z = z_cam;
-    gl_FragDepth = z_cam * inv_far;  // linear depth: uniform float32 resolution
-}
-"""
-
-
-def _program(vert: str, frag: str) -> int:
-    from OpenGL import GL
-    from OpenGL.GL import shaders
-
-    return shaders.compileProgram(
-        shaders.compileShader(vert, GL.GL_VERTEX_SHADER),
-        shaders.compileShader(frag, GL.GL_FRAGMENT_SHADER),
-        validate=False,
-    )
-
-
-def _framebuffer(attachments: Sequence[tuple[int, int]], width: int, height: int,
-                 samples: int, what: str) -> tuple[int, list[int]]:
-    """A framebuffer with one renderbuffer per ``(attachment point, internal format)``."""
-    from OpenGL import GL
-
-    fbo = GL.glGenFramebuffers(1)
-    rbs = [int(r) for r in np.atleast_1d(GL.glGenRenderbuffers(len(attachments)))]
-    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
-    for rb, (point, fmt) in zip(rbs, attachments):
-        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
-        if samples > 1:
-            GL.glRenderbufferStorageMultisample(GL.GL_RENDERBUFFER, samples, fmt, width, height)
-        else:
-            GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, fmt, width, height)
-        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, point, GL.GL_RENDERBUFFER, rb)
-    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, 0)
-    status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
-    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-    if status != GL.GL_FRAMEBUFFER_COMPLETE:
-        raise GLBackendError(f"{what} framebuffer incomplete (status 0x{status:x})")
-    return int(fbo), rbs
-
-
-def _delete_framebuffer(fb: tuple[int, list[int]]) -> None:
-    from OpenGL import GL
-
-    GL.glDeleteFramebuffers(1, [fb[0]])
-    GL.glDeleteRenderbuffers(len(fb[1]), fb[1])
-
-
-def _set_culling(cull: bool) -> None:
-    """Back-face culling on (closed meshes) or off (open, double-sided surfaces).
-
-    Culling a closed, outward-wound mesh changes no pixel: both cameras are
-    outside it (every mesh lies at ``z >= near > 0``, the cameras at ``z = 0``),
-    so each ray meets a front face before any back face. It halves the triangles
-    llvmpipe rasterises.
-    """
-    from OpenGL import GL
-
-    (GL.glEnable if cull else GL.glDisable)(GL.GL_CULL_FACE)
-
-
-@dataclass
-class _GLScene:
-    """GL resources of one uploaded scene (released by :meth:`_Passes.release`)."""
-
-    meshes: list[Mesh]
-    vao_color: int
-    vao_gt: int
-    buffers: list[int]
-    textures: list[int]
-    draws: list[tuple[int, int, int]]  # (texture, first index, index count) per mesh
-    closed: int  # indices of the closed meshes, which come first (drawn with back-face culling)
-    count: int  # indices of the whole scene
-    meta: dict = field(default_factory=dict)
-
-
-class _Passes:
-    """The two passes of a view and the framebuffers they draw into.
-
-    Colour: our flat shader (texture x per-vertex shade, trilinear mipmapped
-    texture lookups) into a ``_MSAA_SAMPLES``-sample RGBA8 framebuffer, resolved
-    by a same-size blit (the average of the samples) into a single-sample one.
-    Ground truth: no multisampling, camera-space ``Z`` into ``GL_R32F`` with a
-    linear ``GL_DEPTH_COMPONENT32F`` visibility test.
-    """
-
-    def __init__(self, width: int, height: int) -> None:
-        from OpenGL import GL
-
-        self.color_program = _program(_COLOR_VERT, _COLOR_FRAG)
-        self.loc_color_pv = GL.glGetUniformLocation(self.color_program, "PV")
-        GL.glUseProgram(self.color_program)
-        GL.glUniform1i(GL.glGetUniformLocation(self.color_program, "tex"), 0)
-        GL.glUseProgram(0)
-        self.gt_program = _program(_GT_VERT, _GT_FRAG)
-        self.loc_gt_pv = GL.glGetUniformLocation(self.gt_program, "PV")
-        self.loc_far = GL.glGetUniformLocation(self.gt_program, "inv_far")
-        # untextured meshes sample a white texture: colour = shade exactly (3 x 3: llvmpipe
-        # compiles other shader variants for power-of-two textures; scenes avoid them too)
-        self.white = self._texture(np.full((3, 3, 3), 255, dtype=np.uint8))
-        self.fbs: list[tuple[int, list[int]]] = []
-        self.resize(width, height)
-
-    def resize(self, width: int, height: int) -> None:
-        """(Re)allocate the framebuffers for ``width`` x ``height`` views."""
-        from OpenGL import GL
-
-        for fb in self.fbs:
-            _delete_framebuffer(fb)
-        self.w, self.h = width, height
-        color, depth = GL.GL_COLOR_ATTACHMENT0, GL.GL_DEPTH_ATTACHMENT
-        self.fb_msaa = _framebuffer([(color, GL.GL_RGBA8), (depth, GL.GL_DEPTH_COMPONENT24)],
-                                    width, height, _MSAA_SAMPLES, "multisampled colour")
-        self.fb_resolve = _framebuffer([(color, GL.GL_RGBA8)], width, height, 1, "colour")
-        self.fb_gt = _framebuffer([(color, GL.GL_R32F), (depth, GL.GL_DEPTH_COMPONENT32F)],
-                                  width, height, 1, "float32 depth")
-        self.fbs = [self.fb_msaa, self.fb_resolve, self.fb_gt]
-
-    def delete(self) -> None:
-        from OpenGL import GL
-
-        for fb in self.fbs:
-            _delete_framebuffer(fb)
-        self.fbs = []
-        GL.glDeleteTextures(1, [self.white])
-        GL.glDeleteProgram(self.color_program)
-        GL.glDeleteProgram(self.gt_program)
-
-    # ------------------------------------------------------------------ uploads
-    @staticmethod
-    def _texture(image: np.ndarray) -> int:
-        """Upload an (h, w, 3 or 4) uint8 image, row 0 at texture coordinate t = 0, with mipmaps.
-
-        Stored as RGBA8 whatever the source: llvmpipe uploads and mipmaps RGBA8 about 2.7x
-        faster than RGB8 (and samples it ~5 % faster), with the same RGB values (the shader ignores alpha), and
-        its RGB -> RGBA conversion on upload is 3x faster than numpy's or PIL's.
-        """
-        from OpenGL import GL
-
-        tex = GL.glGenTextures(1)
-        GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-        h, w = image.shape[:2]
-        source = GL.GL_RGBA if image.shape[2] == 4 else GL.GL_RGB
-        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA8, w, h, 0, source,
-                        GL.GL_UNSIGNED_BYTE, image)
-        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
-        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR_MIPMAP_LINEAR)
-        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
-        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_REPEAT)
-        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_T, GL.GL_REPEAT)
-        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
-        return int(tex)
-
-    def upload(self, meshes: Sequence[Mesh], meta: dict) -> _GLScene:
-        """One vertex and one index buffer for the scene; one texture per distinct image.
-
-        Closed meshes come first in the index buffer, open ones after: the depth
-        pass draws each group in one call (llvmpipe's per-draw cost dominates
-        small scenes), the colour pass one range per mesh, in the same order.
-        """
-        from OpenGL import GL
-
-        meshes = sorted(meshes, key=lambda m: not m.closed)  # stable: scene order within groups
-        closed = sum(int(m.faces.size) for m in meshes if m.closed)
-        textures: dict[int, int] = {}
-        draws = []
-        first = 0
-        for m in meshes:
-            if m.image is None:
-                tex = self.white
-            else:
-                key = id(m.image)
-                if key not in textures:
-                    textures[key] = self._texture(m.image)
-                tex = textures[key]
-            draws.append((tex, first, int(m.faces.size)))
-            first += int(m.faces.size)
-        vertices = np.concatenate([m.vertices for m in meshes])
-        offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
-        faces = np.concatenate([m.faces + np.uint32(o) for m, o in zip(meshes, offsets)])
-        vao_color, vao_gt = (int(v) for v in GL.glGenVertexArrays(2))
-        vbo, ebo = (int(b) for b in GL.glGenBuffers(2))
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, vbo)
-        GL.glBufferData(GL.GL_ARRAY_BUFFER, vertices.nbytes, vertices, GL.GL_STATIC_DRAW)
-        for vao, attributes in ((vao_color, ((0, 3, 0), (1, 2, 12), (2, 3, 20))),
-                                (vao_gt, ((0, 3, 0),))):
-            GL.glBindVertexArray(vao)
-            GL.glBindBuffer(GL.GL_ARRAY_BUFFER, vbo)
-            for loc, size, offset in attributes:
-                GL.glEnableVertexAttribArray(loc)
-                GL.glVertexAttribPointer(loc, size, GL.GL_FLOAT, GL.GL_FALSE, _STRIDE,
-                                         ctypes.c_void_p(offset))
-            GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, ebo)
-            if vao == vao_color:
-                GL.glBufferData(GL.GL_ELEMENT_ARRAY_BUFFER, faces.nbytes, faces,
-                                GL.GL_STATIC_DRAW)
-        GL.glBindVertexArray(0)
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
-        return _GLScene(meshes, vao_color, vao_gt, [vbo, ebo], list(textures.values()),
-                        draws, closed, int(faces.size), meta)
-
-    def release(self, up: _GLScene) -> None:
-        from OpenGL import GL
-
-        GL.glDeleteVertexArrays(2, [up.vao_color, up.vao_gt])
-        GL.glDeleteBuffers(len(up.buffers), up.buffers)
-        if up.textures:
-            GL.glDeleteTextures(len(up.textures), up.textures)
-        up.buffers, up.textures, up.draws = [], [], []
-
-    # ------------------------------------------------------------------ passes
-    @staticmethod
-    def _common_state() -> None:
-        from OpenGL import GL
-
-        GL.glDisable(GL.GL_BLEND)
-        GL.glCullFace(GL.GL_BACK)
-        GL.glFrontFace(GL.GL_CCW)
-        GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
-        GL.glEnable(GL.GL_DEPTH_TEST)
-        GL.glDepthMask(GL.GL_TRUE)
-        GL.glDepthFunc(GL.GL_LESS)
-        GL.glDepthRange(0.0, 1.0)
-
-    def color(self, up: _GLScene, pv: np.ndarray, background: Sequence[float]) -> np.ndarray:
-        """(H, W, 3) uint8 colour, row 0 at the top."""
-        from OpenGL import GL
-
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_msaa[0])
-        GL.glViewport(0, 0, self.w, self.h)
-        GL.glEnable(GL.GL_MULTISAMPLE)
-        self._common_state()
-        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([*background, 1.0], dtype=np.float32))
-        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
-        GL.glUseProgram(self.color_program)
-        GL.glUniformMatrix4fv(self.loc_color_pv, 1, GL.GL_TRUE, pv)
-        GL.glActiveTexture(GL.GL_TEXTURE0)
-        GL.glBindVertexArray(up.vao_color)
-        for tex, first, count in up.draws:
-            _set_culling(first < up.closed)
-            GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-            GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
-                              ctypes.c_void_p(4 * first))
-        GL.glBindVertexArray(0)
-        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
-        GL.glUseProgram(0)
-        # same-size blit of a multisampled buffer = the average of each pixel's samples
-        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.fb_msaa[0])
-        GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self.fb_resolve[0])
-        GL.glBlitFramebuffer(0, 0, self.w, self.h, 0, 0, self.w, self.h,
-                             GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
-        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.fb_resolve[0])
-        out = np.empty((self.h, self.w, 3), dtype=np.uint8)
-        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
-        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGB, GL.GL_UNSIGNED_BYTE, out.ctypes.data)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        return out[::-1].copy()  # GL rows run bottom-up
-
-    def depth(self, up: _GLScene, pv: np.ndarray, far: float) -> np.ndarray:
-        """(H, W) float32 camera-space Z at pixel centres (``inf``: no surface), row 0 at top."""
-        from OpenGL import GL
-
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_gt[0])
-        GL.glViewport(0, 0, self.w, self.h)
-        GL.glDisable(GL.GL_MULTISAMPLE)
-        self._common_state()
-        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([np.inf, 0, 0, 0], dtype=np.float32))
-        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
-        GL.glUseProgram(self.gt_program)
-        GL.glUniformMatrix4fv(self.loc_gt_pv, 1, GL.GL_TRUE, pv)
-        GL.glUniform1f(self.loc_far, 1.0 / far)
-        GL.glBindVertexArray(up.vao_gt)
-        for first, count, cull in ((0, up.closed, True), (up.closed, up.count - up.closed, False)):
-            if count:
-                _set_culling(cull)
-                GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
-                                  ctypes.c_void_p(4 * first))
-        GL.glBindVertexArray(0)
-        GL.glUseProgram(0)
-        out = np.empty((self.h, self.w), dtype=np.float32)
-        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
-        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RED, GL.GL_FLOAT, out.ctypes.data)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        return out[::-1].copy()  # GL rows run bottom-up
 
 
 # ---------------------------------------------------------------------------- Renderer
@@ -469,7 +142,7 @@ class Renderer:
         refuse_late_threads(threads)
         self.width, self.height = int(width), int(height)
         self._closed = True
-        self._held: dict[int, tuple[Any, _GLScene]] = {}
+        self._held: dict[int, tuple[Any, GLScene]] = {}
         self.backend = choose_backend(backend, probe=probe)
         try:
             with driver_threads(threads):
@@ -478,7 +151,7 @@ class Renderer:
 
             GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
             GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
-            self._passes = _Passes(self.width, self.height)
+            self._passes = Passes(self.width, self.height)
             self.gl_renderer = GL.glGetString(GL.GL_RENDERER).decode()
             self.gl_version = GL.glGetString(GL.GL_VERSION).decode()
         except GLBackendError as exc:
@@ -575,7 +248,7 @@ class Renderer:
             check_depth_range(up.meshes, rig)
             return self._render(up, rig, eye)
 
-    def _render(self, up: _GLScene, rig: StereoRig, eye: str) -> ViewRender:
+    def _render(self, up: GLScene, rig: StereoRig, eye: str) -> ViewRender:
         self._context.make_current()
         if (rig.width, rig.height) != (self.width, self.height):
             self.width, self.height = rig.width, rig.height
