@@ -15,6 +15,8 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from stereoforge.errors import BackendError
+
 __all__ = ["BACKENDS", "DEBIAN_FIX", "GLBackendError", "check_backend_name", "check_threads",
            "choose_backend", "driver_threads", "refuse_late_threads", "resolve_backend"]
 
@@ -26,7 +28,7 @@ DEBIAN_FIX = {
 }
 
 
-class GLBackendError(RuntimeError):
+class GLBackendError(BackendError):
     """No OpenGL backend could be started (the message names each one tried and the fix)."""
 
 
