@@ -295,7 +295,7 @@ def check_ground_truth(
         wrong = finite != (mask != 0)
         if wrong.any():
             i, j = np.argwhere(wrong)[0]
-            raise fail(name, "finite ground truth exactly where the mask is 128 or 255",
+            raise fail(name, "ground truth finite exactly where the mask is 128 or 255",
                        f"at row {i}, column {j} the mask is {mask[i, j]} and {name} is "
                        f"{out[i, j]} ({int(wrong.sum())} such pixels)")
     return out
