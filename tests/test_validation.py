@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from stereoforge.errors import ParameterError, ParameterTypeError, SceneError
+from stereoforge.schema import Key, check_table
 from stereoforge.validation import (
-    Key,
     check_array,
     check_bool,
     check_choice,
@@ -18,7 +18,6 @@ from stereoforge.validation import (
     check_real,
     check_sequence,
     check_shape,
-    check_table,
     check_type,
     describe,
     fail,

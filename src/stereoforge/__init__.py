@@ -5,8 +5,9 @@ This package imports numpy only, so every other package may import it: ``scenes`
 ``scenes``, ``synth`` or ``matcher``.
 
 - :mod:`stereoforge.errors`: :class:`StereoforgeError` and its subclasses.
-- :mod:`stereoforge.validation`: ``check_*`` validators and the :class:`~stereoforge.validation.Key`
-  schema of configuration tables, all with one message format.
+- :mod:`stereoforge.validation`: the ``check_*`` validators, all with one message format.
+- :mod:`stereoforge.schema`: :class:`~stereoforge.schema.Key` and
+  :func:`~stereoforge.schema.check_table`, declarative schemas of settings tables.
 """
 
 from stereoforge.errors import (

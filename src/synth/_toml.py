@@ -9,7 +9,7 @@ that keeps positions is maintained (tomlkit keeps none), and tomllib checks the 
 so the scanner only has to find things, not to judge them.
 
 :class:`TomlSource` pairs the text with its file name and checks tables against a
-:class:`stereoforge.validation.Key` schema, turning every failure into the configuration's
+:class:`stereoforge.schema.Key` schema, turning every failure into the configuration's
 error class with ``file:line`` in front.
 """
 
@@ -21,7 +21,8 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from stereoforge.errors import ConfigError, StereoforgeError
-from stereoforge.validation import Key, check_table, describe, fail
+from stereoforge.schema import Key, check_table
+from stereoforge.validation import describe, fail
 
 __all__ = ["key_lines", "line_of", "TomlSource"]
 

@@ -26,7 +26,8 @@ import numpy as np
 
 from scenes import PRESETS
 from stereoforge.errors import ConfigError, StereoforgeError
-from stereoforge.validation import Key, check_keys, describe
+from stereoforge.schema import Key
+from stereoforge.validation import check_keys, describe
 from synth._toml import TomlSource
 from synth.rig import StereoRig
 

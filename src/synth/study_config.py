@@ -13,7 +13,7 @@ from typing import Any, Mapping
 from scenes import PRESETS
 from scenes.spec import TEXTURE_KINDS
 from stereoforge.errors import ConfigError, StereoforgeError
-from stereoforge.validation import Key
+from stereoforge.schema import Key
 from synth._toml import TomlSource
 from synth.rig import StereoRig
 
