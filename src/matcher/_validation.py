@@ -1,23 +1,43 @@
 """Validation helpers shared by the public functions of :mod:`matcher`.
 
-Every public function validates its input once, here, and raises a :class:`ValueError` or
-:class:`TypeError` that names the parameter, the expected and the actual value, and the fix.
-Kernels downstream trust what these helpers return.
+Every public function validates its input once, here, and raises
+:class:`~stereoforge.errors.ParameterError` (a ``ValueError``) or
+:class:`~stereoforge.errors.ParameterTypeError` (a ``TypeError``) that names the parameter, the
+expected and the actual value, and the fix. Kernels downstream trust what these helpers return.
 
-Other modules may append helpers; keep each one small and keep the message format
-``"<name>: expected <what>, got <actual>; <fix>"``.
+The array checks of stereo matching (images, disparity maps, masks, windows) live here, built
+on :mod:`stereoforge.validation`, whose scalar checks (:func:`check_bool`, :func:`check_int`,
+:func:`check_real`, :func:`check_choice`) this module re-exports: matcher code imports its checks
+from here. Other modules may append helpers; keep each one small and build its message with
+:func:`stereoforge.validation.fail`: ``"<name>: expected <what>, got <actual>; <fix>"``.
 """
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Sequence
 
 import numpy as np
 
+from stereoforge.validation import (
+    check_array,
+    check_bool,
+    check_choice,
+    check_dtype,
+    check_finite,
+    check_int,
+    check_real,
+    check_shape,
+    check_type,
+    fail,
+)
+
 __all__ = [
     "GREY_WEIGHTS",
     "MASK_CODES",
+    "check_bool",
+    "check_choice",
+    "check_int",
+    "check_real",
     "check_ground_truth",
     "check_occlusion_mask",
     "check_disparity_map",
@@ -31,12 +51,6 @@ __all__ = [
 
 #: ITU-R BT.601 luma weights for (R, G, B), the ones OpenCV's ``COLOR_RGB2GRAY`` uses.
 GREY_WEIGHTS: tuple[float, float, float] = (0.299, 0.587, 0.114)
-
-
-def _describe(x: object) -> str:
-    if isinstance(x, np.ndarray):
-        return f"array of shape {x.shape} and dtype {x.dtype}"
-    return f"{type(x).__name__} {x!r}"
 
 
 def rgb_to_grey(image: np.ndarray) -> np.ndarray:
@@ -85,29 +99,19 @@ def check_image(image: object, name: str) -> np.ndarray:
     >>> check_image(np.zeros((2, 3, 3), np.uint8), "left").shape
     (2, 3)
     """
-    if not isinstance(image, np.ndarray):
-        raise TypeError(
-            f"{name}: expected a numpy array, got {_describe(image)}; convert with np.asarray"
-        )
-    if image.dtype == np.bool_ or image.dtype.kind not in "uif":
-        raise TypeError(
-            f"{name}: expected a uint8, integer or float image, got dtype {image.dtype}; "
-            "convert with .astype(np.uint8) or .astype(np.float32)"
-        )
+    check_array(image, name)
+    check_dtype(image, name, kinds="uif", expected="a uint8, integer or float image",
+                fix="convert with .astype(np.uint8) or .astype(np.float32)")
     if image.ndim == 3 and image.shape[2] == 1:
         image = image[:, :, 0]
     if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 3)):
-        raise ValueError(
-            f"{name}: expected shape (H, W), (H, W, 1) or (H, W, 3) (RGB), got {image.shape}; "
-            "drop an alpha channel with image[..., :3]"
-        )
+        raise fail(name, "shape (H, W), (H, W, 1) or (H, W, 3) (RGB)", str(image.shape),
+                   fix="drop an alpha channel with image[..., :3]")
     if image.shape[0] == 0 or image.shape[1] == 0:
-        raise ValueError(f"{name}: expected a non-empty image, got shape {image.shape}")
-    if image.dtype.kind == "f" and not np.isfinite(image).all():
-        raise ValueError(
-            f"{name}: expected finite pixel values, got {int((~np.isfinite(image)).sum())} "
-            "NaN/inf pixels; replace them (e.g. np.nan_to_num) before matching"
-        )
+        raise fail(name, "a non-empty image", f"shape {image.shape}")
+    if image.dtype.kind == "f":
+        check_finite(image, name, what="pixel values",
+                     fix="replace them (e.g. np.nan_to_num) before matching")
     if image.ndim == 3:
         return rgb_to_grey(image)
     if image.dtype == np.uint8 or image.dtype.kind == "f":
@@ -126,16 +130,8 @@ def check_same_shape(
     >>> check_same_shape(np.zeros((2, 3)), np.zeros((2, 3)))
     """
     if a.shape != b.shape:
-        raise ValueError(
-            f"{names[0]} and {names[1]}: expected the same shape, got {a.shape} and {b.shape}; "
-            "crop or resize one of them"
-        )
-
-
-def _as_int(value: object, name: str) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name}: expected an integer, got {_describe(value)}")
-    return int(value)
+        raise fail(f"{names[0]} and {names[1]}", "the same shape", f"{a.shape} and {b.shape}",
+                   fix="crop or resize one of them")
 
 
 def check_window(window: object, name: str, *, image_shape: Sequence[int]) -> int:
@@ -151,15 +147,13 @@ def check_window(window: object, name: str, *, image_shape: Sequence[int]) -> in
     >>> check_window(5, "window", image_shape=(10, 12))
     5
     """
-    w = _as_int(window, name)
+    w = check_int(window, name)
     limit = min(int(image_shape[0]), int(image_shape[1]))
     if w < 3 or w % 2 == 0:
-        raise ValueError(f"{name}: expected an odd integer >= 3, got {w}; try {max(3, w | 1)}")
+        raise fail(name, "an odd integer >= 3", str(w), fix=f"try {max(3, w | 1)}")
     if w > limit:
-        raise ValueError(
-            f"{name}: expected at most min(H, W) = {limit} for an image of shape "
-            f"{tuple(image_shape)}, got {w}; use a smaller window"
-        )
+        raise fail(name, f"at most min(H, W) = {limit} for an image of shape "
+                   f"{tuple(image_shape)}", str(w), fix="use a smaller window")
     return w
 
 
@@ -171,13 +165,8 @@ def check_max_disparity(max_disparity: object, width: int, *, name: str = "max_d
     >>> check_max_disparity(16, 64)
     16
     """
-    d = _as_int(max_disparity, name)
-    if not 1 <= d < width:
-        raise ValueError(
-            f"{name}: expected an integer in [1, {width - 1}] (below the image width {width}), "
-            f"got {d}"
-        )
-    return d
+    return check_int(max_disparity, name, lo=1, hi=width - 1,
+                     fix=f"it must stay below the image width {width}")
 
 
 def check_positive(value: object, name: str) -> float:
@@ -188,12 +177,7 @@ def check_positive(value: object, name: str) -> float:
     >>> check_positive(3, "delta")
     3.0
     """
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a positive real number, got {_describe(value)}")
-    v = float(value)
-    if not (np.isfinite(v) and v > 0):
-        raise ValueError(f"{name}: expected a finite number > 0, got {v}")
-    return v
+    return check_real(value, name, lo=0, lo_open=True)
 
 
 def check_disparity_map(
@@ -229,22 +213,16 @@ def check_disparity_map(
     >>> check_disparity_map(np.full((2, 2), np.inf, np.float32), "gt").dtype
     dtype('float32')
     """
-    if not isinstance(disparity, np.ndarray):
-        raise TypeError(
-            f"{name}: expected a numpy array, got {_describe(disparity)}; convert with np.asarray"
-        )
-    kind = disparity.dtype.kind
-    if not (kind == "f" or (allow_integer and kind in "ui")):
-        allowed = "float or integer" if allow_integer else "float32 or float64"
-        raise TypeError(
-            f"{name}: expected a {allowed} disparity map, got dtype {disparity.dtype}; "
-            "convert with .astype(np.float32) and mark invalid pixels with inf"
-        )
+    check_array(disparity, name)
+    allowed = "float or integer" if allow_integer else "float32 or float64"
+    check_dtype(disparity, name, kinds="fui" if allow_integer else "f",
+                expected=f"a {allowed} disparity map",
+                fix="convert with .astype(np.float32) and mark invalid pixels with inf")
     if disparity.ndim != 2:
-        raise ValueError(f"{name}: expected a 2-D (H, W) map, got shape {disparity.shape}")
-    if shape is not None and disparity.shape != tuple(shape):
-        raise ValueError(f"{name}: expected shape {tuple(shape)}, got {disparity.shape}")
-    if kind != "f":
+        raise fail(name, "a 2-D (H, W) map", f"shape {disparity.shape}")
+    if shape is not None:
+        check_shape(disparity, name, shape)
+    if disparity.dtype.kind != "f":
         return disparity.astype(np.float64)
     return disparity
 
@@ -262,24 +240,19 @@ def check_occlusion_mask(mask: object, name: str, *, shape: Sequence[int] | None
     >>> check_occlusion_mask(np.array([[0, 128, 255]], np.uint8), "mask").shape
     (1, 3)
     """
-    if not isinstance(mask, np.ndarray) or mask.dtype != np.uint8:
-        got = f"dtype {mask.dtype}" if isinstance(mask, np.ndarray) else _describe(mask)
-        raise TypeError(
-            f"{name}: expected a uint8 mask with codes 0/128/255, got {got}; "
-            "convert with .astype(np.uint8)"
-        )
+    expected, fix = "a uint8 mask with codes 0/128/255", "convert with .astype(np.uint8)"
+    check_type(mask, name, np.ndarray, expected=expected, fix=fix)
+    check_dtype(mask, name, dtypes=(np.uint8,), expected=expected, fix=fix)
     if mask.ndim != 2:
-        raise ValueError(f"{name}: expected a 2-D (H, W) mask, got shape {mask.shape}")
-    if shape is not None and mask.shape != tuple(shape):
-        raise ValueError(f"{name}: expected shape {tuple(shape)}, got {mask.shape}")
+        raise fail(name, "a 2-D (H, W) mask", f"shape {mask.shape}")
+    if shape is not None:
+        check_shape(mask, name, shape)
     none, occluded, visible = MASK_CODES
     bad = (mask != none) & (mask != occluded) & (mask != visible)  # 25x faster than np.unique
     if bad.any():
         extra = np.unique(mask[bad])
-        raise ValueError(
-            f"{name}: expected only the codes 0 (no ground truth), 128 (occluded), "
-            f"255 (visible), got also {extra[:5].tolist()}"
-        )
+        raise fail(name, "only the codes 0 (no ground truth), 128 (occluded), 255 (visible)",
+                   f"also {extra[:5].tolist()}")
     return mask
 
 
@@ -314,19 +287,15 @@ def check_ground_truth(
     bad = out < 0  # finite negatives and -inf
     if bad.any():
         i, j = np.argwhere(bad)[0]
-        raise ValueError(
-            f"{name}: expected disparities >= 0 (inf for no ground truth), got {out[i, j]} at "
-            f"row {i}, column {j} ({int(bad.sum())} such pixels)"
-        )
+        raise fail(name, "disparities >= 0 (inf for no ground truth)",
+                   f"{out[i, j]} at row {i}, column {j} ({int(bad.sum())} such pixels)")
     if mask is not None:
         if mask.shape != out.shape:
-            raise ValueError(f"{name} and mask: shapes differ, {out.shape} vs {mask.shape}")
+            raise fail(f"{name} and mask", "the same shape", f"{out.shape} and {mask.shape}")
         wrong = finite != (mask != 0)
         if wrong.any():
             i, j = np.argwhere(wrong)[0]
-            raise ValueError(
-                f"{name}: ground truth must be finite exactly where the mask is 128 or 255; "
-                f"at row {i}, column {j} the mask is {mask[i, j]} and {name} is {out[i, j]} "
-                f"({int(wrong.sum())} such pixels)"
-            )
+            raise fail(name, "ground truth finite exactly where the mask is 128 or 255",
+                       f"at row {i}, column {j} the mask is {mask[i, j]} and {name} is "
+                       f"{out[i, j]} ({int(wrong.sum())} such pixels)")
     return out

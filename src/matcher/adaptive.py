@@ -47,7 +47,6 @@ max_window)``, the paper's "reduction ratio of operation" (Tables 2-3).
 from __future__ import annotations
 
 import functools
-import numbers
 import types
 from dataclasses import dataclass
 from typing import Literal
@@ -56,7 +55,13 @@ import numba
 import numpy as np
 
 from matcher import _adaptive_kernels
-from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
+from matcher._validation import (
+    check_image,
+    check_int,
+    check_max_disparity,
+    check_same_shape,
+    check_window,
+)
 from matcher.census import MAX_WINDOW, _padded, _resolve_offsets, n_bits, n_words
 from matcher.edges import CANNY_HIGH, CANNY_IMPLS, CANNY_LOW, CANNY_SIGMA, canny_edges
 from matcher.match import MatchResult, OpCounts, _census_ops
@@ -119,20 +124,11 @@ def _check_edges(edges: object) -> np.ndarray:
     return np.ascontiguousarray(edges)
 
 
-def _check_int(value: object, name: str, *, minimum: int, hint: str) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name}: expected an integer >= {minimum}, got {value!r}; {hint}")
-    v = int(value)
-    if v < minimum:
-        raise ValueError(f"{name}: expected an integer >= {minimum}, got {v}; {hint}")
-    return v
-
-
 def _window_sides(min_window: object, max_window: object) -> np.ndarray:
     """Validated candidate sides ``min_window, min_window + 2, .., max_window``."""
     sides = []
     for name, value in (("min_window", min_window), ("max_window", max_window)):
-        v = _check_int(value, name, minimum=3, hint="window sides are odd integers >= 3, e.g. 21")
+        v = check_int(value, name, lo=3, fix="window sides are odd integers >= 3, e.g. 21")
         if v % 2 == 0:
             raise ValueError(f"{name}: expected an odd integer >= 3, got {v}; try {v + 1}")
         if v > MAX_WINDOW:
@@ -194,7 +190,7 @@ def select_windows(
     """
     edges = _check_edges(edges)
     sides = _window_sides(min_window, max_window)
-    n = _check_int(n_decreases, "n_decreases", minimum=1, hint="the paper uses N = 5")
+    n = check_int(n_decreases, "n_decreases", lo=1, fix="the paper uses N = 5")
     out = np.empty(edges.shape, dtype=np.uint8)
     _adaptive_kernels.select_windows_kernel(
         edges, sides, n, numba.get_num_threads(), np.zeros(1, np.int64), out
@@ -274,7 +270,7 @@ def match_awct(
     sides = _window_sides(min_window, max_window)
     max_window = check_window(int(sides[-1]), "max_window", image_shape=grey_l.shape)
     d = check_max_disparity(max_disparity, grey_l.shape[1])
-    n = _check_int(n_decreases, "n_decreases", minimum=1, hint="the paper uses N = 5")
+    n = check_int(n_decreases, "n_decreases", lo=1, fix="the paper uses N = 5")
     if right_windows not in RIGHT_WINDOWS:
         raise ValueError(f"right_windows: expected one of {RIGHT_WINDOWS}, got {right_windows!r}")
     if pattern not in ("dense", "sparse"):

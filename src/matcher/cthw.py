@@ -28,7 +28,6 @@ match; ``params["ct_ops"]`` holds full-resolution CT's at the same window for co
 from __future__ import annotations
 
 import functools
-import math
 import numbers
 import types
 from dataclasses import dataclass
@@ -38,7 +37,14 @@ import numba
 import numpy as np
 
 from matcher import _cthw_kernels, _kernels
-from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
+from matcher._validation import (
+    check_bool,
+    check_image,
+    check_max_disparity,
+    check_real,
+    check_same_shape,
+    check_window,
+)
 from matcher.census import _resolve_offsets, n_bits
 from matcher.haar import HAAR_NORMS, haar2d
 from matcher.match import MatchResult, OpCounts, _census_ops, match
@@ -65,21 +71,6 @@ class CTHWResult(MatchResult):
 
     coarse: np.ndarray
     hh_edges: np.ndarray
-
-
-def _check_real(value: object, name: str, *, minimum: float = 0.0) -> float:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number >= {minimum}, got {value!r}")
-    v = float(value)
-    if not (math.isfinite(v) and v >= minimum):
-        raise ValueError(f"{name}: expected a finite number >= {minimum}, got {v}")
-    return v
-
-
-def _check_bool(value: object, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name}: expected True or False, got {value!r}")
-    return bool(value)
 
 
 def _check_max_path(max_path: object) -> int:
@@ -118,8 +109,8 @@ def hh_edges(hh: np.ndarray, *, threshold: float = HH_THRESHOLD, relative: bool 
     >>> hh_edges(np.array([[0.0, -5.0, 3.0]]), threshold=0.5, relative=True).tolist()
     [[False, True, True]]
     """
-    t = _check_real(threshold, "threshold")
-    relative = _check_bool(relative, "relative")
+    t = check_real(threshold, "threshold", lo=0.0)
+    relative = check_bool(relative, "relative")
     a = np.abs(np.asarray(hh, dtype=np.float64))
     if relative:
         if t > 1.0:
@@ -175,8 +166,8 @@ def modify_disparity(
             f"{getattr(edges, 'shape', None)} {getattr(edges, 'dtype', type(edges).__name__)}; "
             "binarise it with hh_edges"
         )
-    include_edge = _check_bool(include_edge, "include_edge")
-    include_self = _check_bool(include_self, "include_self")
+    include_edge = check_bool(include_edge, "include_edge")
+    include_self = check_bool(include_self, "include_self")
     steps = _check_max_path(max_path)
     d = disparity if disparity.dtype in (np.float32, np.float64) else disparity.astype(np.float64)
     ok, largest = _cthw_kernels.disparity_range(d)
@@ -346,10 +337,10 @@ def match_cthw(
         raise ValueError(
             f"max_disparity: expected ceil(D / 2) < {w2} (the LL band's width), got D = {d_full}"
         )
-    hh_threshold = _check_real(hh_threshold, "hh_threshold")
-    hh_relative = _check_bool(hh_relative, "hh_relative")
-    include_edge = _check_bool(include_edge, "include_edge")
-    include_self = _check_bool(include_self, "include_self")
+    hh_threshold = check_real(hh_threshold, "hh_threshold", lo=0.0)
+    hh_relative = check_bool(hh_relative, "hh_relative")
+    include_edge = check_bool(include_edge, "include_edge")
+    include_self = check_bool(include_self, "include_self")
     _check_max_path(max_path)
 
     if grey_l.dtype == np.uint8 and grey_r.dtype == np.uint8:

@@ -17,7 +17,13 @@ import numba
 import numpy as np
 
 from matcher import _kernels
-from matcher._validation import check_image, check_max_disparity, check_same_shape, check_window
+from matcher._validation import (
+    check_bool,
+    check_image,
+    check_max_disparity,
+    check_same_shape,
+    check_window,
+)
 from matcher.census import _check_side, _padded, _resolve_offsets, n_words
 
 __all__ = ["METHODS", "MatchResult", "OpCounts", "match"]
@@ -72,12 +78,6 @@ class MatchResult:
     window: int
     max_disparity: int
     params: Mapping[str, object]
-
-
-def _check_flag(value: object, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name}: expected True or False, got {value!r}")
-    return bool(value)
 
 
 def _to_uint8(grey_l: np.ndarray, grey_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -222,8 +222,8 @@ def match(
     check_same_shape(grey_l, grey_r)
     window = _check_side(check_window(window, "window", image_shape=grey_l.shape))
     max_disparity = check_max_disparity(max_disparity, grey_l.shape[1])
-    lr_check = _check_flag(lr_check, "lr_check")
-    subpixel = _check_flag(subpixel, "subpixel")
+    lr_check = check_bool(lr_check, "lr_check")
+    subpixel = check_bool(subpixel, "subpixel")
     if isinstance(lr_tolerance, bool) or not isinstance(lr_tolerance, (int, np.integer)):
         raise TypeError(f"lr_tolerance: expected an integer >= 0, got {lr_tolerance!r}")
     if lr_tolerance < 0:

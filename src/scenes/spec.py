@@ -23,6 +23,17 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from stereoforge.errors import SceneError, StereoforgeError
+from stereoforge.validation import (
+    check_choice,
+    check_int,
+    check_keys,
+    check_real,
+    check_sequence,
+    check_type,
+    fail,
+)
+
 __all__ = [
     "TEXTURE_KINDS",
     "OBJECT_KINDS",
@@ -60,42 +71,14 @@ _MAX_SEGMENTS = 4096
 
 
 # --------------------------------------------------------------------------- coercion helpers
-def _float(value: Any, name: str, *, lo: float | None = None, hi: float | None = None,
-           lo_open: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
-    out = float(value)
-    if not math.isfinite(out):
-        raise ValueError(f"{name} must be finite, got {out!r}")
-    if lo is not None and (out <= lo if lo_open else out < lo):
-        rel = ">" if lo_open else ">="
-        raise ValueError(f"{name} must be {rel} {lo}, got {out!r}")
-    if hi is not None and out > hi:
-        raise ValueError(f"{name} must be <= {hi}, got {out!r}")
-    return out
-
-
-def _int(value: Any, name: str, *, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
-    out = int(value)
-    if not lo <= out < hi:
-        raise ValueError(f"{name} must be in [{lo}, {hi}), got {out}")
-    return out
-
-
-def _str(value: Any, name: str) -> str:
-    if not isinstance(value, str):
-        raise TypeError(f"{name} must be a str, got {type(value).__name__} {value!r}")
-    return value
-
-
 def _vec(value: Any, name: str, n: int | None, **bounds: Any) -> tuple[float, ...]:
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
-        raise TypeError(f"{name} must be a sequence of numbers, got {type(value).__name__}")
-    if n is not None and len(value) != n:
-        raise ValueError(f"{name} must have {n} entries, got {len(value)}: {tuple(value)!r}")
-    return tuple(_float(v, f"{name}[{i}]", **bounds) for i, v in enumerate(value))
+    """A sequence of ``n`` finite numbers within ``bounds``, as a tuple of floats."""
+    return check_sequence(value, name, length=n, of="numbers",
+                          item=lambda v, item: check_real(v, item, **bounds))
+
+
+def _seed(value: Any, name: str) -> int:
+    return check_int(value, name, lo=0, hi=_MAX_SEED, hi_open=True)
 
 
 def _set(obj: Any, name: str, value: Any) -> None:
@@ -142,16 +125,15 @@ class TextureSpec:
     angle: float = 0.0
 
     def __post_init__(self) -> None:
-        kind = _str(self.kind, "TextureSpec.kind")
-        if kind not in TEXTURE_KINDS:
-            raise ValueError(f"TextureSpec.kind must be one of {list(TEXTURE_KINDS)}, got {kind!r}")
-        _set(self, "frequency", _float(self.frequency, "TextureSpec.frequency", lo=0.0,
-                                       lo_open=True))
-        _set(self, "contrast", _float(self.contrast, "TextureSpec.contrast", lo=0.0, hi=1.0))
-        _set(self, "mean", _float(self.mean, "TextureSpec.mean", lo=0.0, hi=1.0))
+        check_choice(check_type(self.kind, "TextureSpec.kind", str), "TextureSpec.kind",
+                     TEXTURE_KINDS)
+        _set(self, "frequency", check_real(self.frequency, "TextureSpec.frequency", lo=0.0,
+                                           lo_open=True))
+        _set(self, "contrast", check_real(self.contrast, "TextureSpec.contrast", lo=0.0, hi=1.0))
+        _set(self, "mean", check_real(self.mean, "TextureSpec.mean", lo=0.0, hi=1.0))
         _set(self, "color", _vec(self.color, "TextureSpec.color", 3, lo=0.0, hi=1.0))
-        _set(self, "seed", _int(self.seed, "TextureSpec.seed", lo=0, hi=_MAX_SEED))
-        _set(self, "angle", _float(self.angle, "TextureSpec.angle"))
+        _set(self, "seed", _seed(self.seed, "TextureSpec.seed"))
+        _set(self, "angle", check_real(self.angle, "TextureSpec.angle"))
 
 
 @dataclass(frozen=True)
@@ -250,29 +232,23 @@ class ObjectSpec:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        kind = _str(self.kind, "ObjectSpec.kind")
-        if kind not in OBJECT_KINDS:
-            raise ValueError(f"ObjectSpec.kind must be one of {list(OBJECT_KINDS)}, got {kind!r}")
-        if not isinstance(self.pose, Pose):
-            raise TypeError(f"ObjectSpec.pose must be a Pose, got {type(self.pose).__name__}")
-        if not isinstance(self.texture, TextureSpec):
-            raise TypeError(
-                f"ObjectSpec.texture must be a TextureSpec, got {type(self.texture).__name__}")
-        _str(self.name, "ObjectSpec.name")
+        kind = check_choice(check_type(self.kind, "ObjectSpec.kind", str), "ObjectSpec.kind",
+                            OBJECT_KINDS)
+        check_type(self.pose, "ObjectSpec.pose", Pose)
+        check_type(self.texture, "ObjectSpec.texture", TextureSpec)
+        check_type(self.name, "ObjectSpec.name", str)
         labels = OBJECT_KINDS[kind]
         size = _vec(self.size, f"ObjectSpec.size of a {kind} {labels}", len(labels))
-        for label, value in zip(labels, size):
-            if value < 0 or (value == 0 and label != "amplitude"):
-                note = " (amplitude >= 0)" if kind == "terrain" else ""
-                raise ValueError(f"ObjectSpec.size: {kind} {label} must be > 0{note}, "
-                                 f"got {value!r}")
+        for i, (label, value) in enumerate(zip(labels, size)):
+            check_real(value, f"ObjectSpec.size[{i}] ({label} of a {kind})", lo=0.0,
+                       lo_open=label != "amplitude")
         if kind == "moebius" and not size[1] < 2 * size[0]:
-            raise ValueError(f"ObjectSpec.size: moebius width must be < 2 * radius "
-                             f"(else the strip self-intersects), got {size!r}")
+            raise fail("ObjectSpec.size of a moebius ('radius', 'width')", "width < 2 * radius",
+                       repr(size), fix="narrow the strip: a wider one self-intersects")
         _set(self, "size", size)
-        _set(self, "segments", _int(self.segments, "ObjectSpec.segments", lo=3,
-                                    hi=_MAX_SEGMENTS + 1))
-        _set(self, "seed", _int(self.seed, "ObjectSpec.seed", lo=0, hi=_MAX_SEED))
+        _set(self, "segments", check_int(self.segments, "ObjectSpec.segments", lo=3,
+                                         hi=_MAX_SEGMENTS))
+        _set(self, "seed", _seed(self.seed, "ObjectSpec.seed"))
 
 
 @dataclass(frozen=True)
@@ -303,13 +279,11 @@ class LightSpec:
     def __post_init__(self) -> None:
         direction = _vec(self.direction, "LightSpec.direction", 3)
         if not 0.0 < math.hypot(*direction) < math.inf:
-            raise ValueError(
-                f"LightSpec.direction must have a finite non-zero length, got {direction}; "
-                "give a direction such as (0.3, 0.5, 1.0)"
-            )
+            raise fail("LightSpec.direction", "a finite non-zero length", repr(direction),
+                       fix="give a direction such as (0.3, 0.5, 1.0)")
         _set(self, "direction", direction)
-        _set(self, "intensity", _float(self.intensity, "LightSpec.intensity", lo=0.0))
-        _set(self, "ambient", _float(self.ambient, "LightSpec.ambient", lo=0.0))
+        _set(self, "intensity", check_real(self.intensity, "LightSpec.intensity", lo=0.0))
+        _set(self, "ambient", check_real(self.ambient, "LightSpec.ambient", lo=0.0))
 
     def unit_direction(self) -> np.ndarray:
         """The light direction normalised to unit length, a (3,) float64 array."""
@@ -353,22 +327,16 @@ class SceneSpec:
     description: str = ""
 
     def __post_init__(self) -> None:
-        _str(self.name, "SceneSpec.name")
-        _str(self.description, "SceneSpec.description")
-        if isinstance(self.objects, (str, bytes)) or not hasattr(self.objects, "__len__"):
-            raise TypeError("SceneSpec.objects must be a sequence of ObjectSpec")
-        objects = tuple(self.objects)
+        check_type(self.name, "SceneSpec.name", str)
+        check_type(self.description, "SceneSpec.description", str)
+        objects = check_sequence(self.objects, "SceneSpec.objects", of="ObjectSpec",
+                                 item=lambda obj, name: check_type(obj, name, ObjectSpec))
         if not objects:
-            raise ValueError("SceneSpec.objects must hold at least one ObjectSpec, got none")
-        for i, obj in enumerate(objects):
-            if not isinstance(obj, ObjectSpec):
-                raise TypeError(f"SceneSpec.objects[{i}] must be an ObjectSpec, "
-                                f"got {type(obj).__name__}")
+            raise fail("SceneSpec.objects", "at least one ObjectSpec", "none")
         _set(self, "objects", objects)
-        if not isinstance(self.light, LightSpec):
-            raise TypeError(f"SceneSpec.light must be a LightSpec, got {type(self.light).__name__}")
+        check_type(self.light, "SceneSpec.light", LightSpec)
         _set(self, "background", _vec(self.background, "SceneSpec.background", 3, lo=0.0, hi=1.0))
-        _set(self, "seed", _int(self.seed, "SceneSpec.seed", lo=0, hi=_MAX_SEED))
+        _set(self, "seed", _seed(self.seed, "SceneSpec.seed"))
 
 
 # --------------------------------------------------------------------------- dict conversion
@@ -389,8 +357,7 @@ def scene_to_dict(spec: SceneSpec) -> dict[str, Any]:
     >>> sorted(scene_to_dict(SceneSpec("s", (plane,))))[:3]
     ['background', 'description', 'light']
     """
-    if not isinstance(spec, SceneSpec):
-        raise TypeError(f"spec must be a SceneSpec, got {type(spec).__name__}")
+    check_type(spec, "spec", SceneSpec)
     out = {"version": _FORMAT_VERSION}
     out.update(_to_plain(spec))
     return out
@@ -398,12 +365,8 @@ def scene_to_dict(spec: SceneSpec) -> dict[str, Any]:
 
 def _take(data: Any, cls: type, where: str) -> dict[str, Any]:
     """Check ``data`` is a mapping whose keys are fields of ``cls``; return a copy."""
-    if not isinstance(data, dict):
-        raise TypeError(f"{where} must be a table/object, got {type(data).__name__}")
-    valid = [f.name for f in fields(cls)]
-    for key in data:
-        if key not in valid:
-            raise ValueError(f"unknown key {key!r} in {where}; valid keys: {valid}")
+    check_type(data, where, dict, expected="a table/object")
+    check_keys(data, where, [f.name for f in fields(cls)], error=SceneError)
     return dict(data)
 
 
@@ -412,14 +375,12 @@ def _build(cls: type, kwargs: dict[str, Any], where: str) -> Any:
                 if f.default is MISSING and f.default_factory is MISSING]
     missing = [name for name in required if name not in kwargs]
     if missing:
-        raise ValueError(f"{where} is missing the required key(s) {missing}; "
+        raise SceneError(f"{where} is missing the required key(s) {missing}; "
                          f"required keys: {required}")
     try:
         return cls(**kwargs)
-    except TypeError as exc:
-        raise TypeError(f"{where}: {exc}") from None
-    except ValueError as exc:
-        raise ValueError(f"{where}: {exc}") from None
+    except StereoforgeError as exc:  # the same class, told where in the scene
+        raise type(exc)(f"{where}: {exc}") from None
 
 
 def scene_from_dict(data: dict[str, Any]) -> SceneSpec:
@@ -427,11 +388,13 @@ def scene_from_dict(data: dict[str, Any]) -> SceneSpec:
 
     Raises
     ------
-    ValueError
-        On an unknown key (naming it, where it is and the valid keys), a missing required key, an
-        unknown kind or an out-of-range value.
-    TypeError
-        On a value of the wrong type.
+    SceneError
+        On an unknown key (naming it, where it is and the valid keys), a missing required key or
+        an unsupported format version (a ``ValueError``).
+    stereoforge.errors.ParameterError
+        On an unknown kind or an out-of-range value (a ``ValueError``).
+    stereoforge.errors.ParameterTypeError
+        On a value of the wrong type (a ``TypeError``).
 
     Examples
     --------
@@ -443,13 +406,11 @@ def scene_from_dict(data: dict[str, Any]) -> SceneSpec:
     if isinstance(data, dict):
         version = data.pop("version", _FORMAT_VERSION)
         if version != _FORMAT_VERSION:
-            raise ValueError(f"unsupported scene format version {version!r}; "
+            raise SceneError(f"unsupported scene format version {version!r}; "
                              f"this stereoforge reads version {_FORMAT_VERSION}")
     top = _take(data, SceneSpec, "scene")
-    raw_objects = top.get("objects", [])
-    if not isinstance(raw_objects, (list, tuple)):
-        raise TypeError("scene.objects must be an array of tables, "
-                        f"got {type(raw_objects).__name__}")
+    raw_objects = check_type(top.get("objects", []), "scene.objects", (list, tuple),
+                             expected="an array of tables")
     objects = []
     for i, raw in enumerate(raw_objects):
         where = f"objects[{i}]"
@@ -493,8 +454,8 @@ def _format(path: Path) -> tuple[Any, Any]:
     try:
         return _FORMATS[path.suffix.lower()]
     except KeyError:
-        raise ValueError(f"scene file {str(path)!r} must end in one of {sorted(_FORMATS)}, "
-                         f"got suffix {path.suffix!r}") from None
+        raise fail(f"scene file {str(path)!r}", f"a suffix in {sorted(_FORMATS)}",
+                   repr(path.suffix), error=SceneError) from None
 
 
 def dump_scene(spec: SceneSpec, path: str | Path) -> Path:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from scenes import SceneSpec, get_preset, load_scene, scene_to_dict
+from stereoforge.errors import DatasetError
 from synth.io._atomic import atomic_write_bytes
 from synth.io.kitti import write_kitti
 from synth.io.middlebury import write_middlebury
@@ -25,7 +26,7 @@ from synth.preview import preview_image
 
 __all__ = ["FORMATS", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for", "write_pair"]
 
-class OutputDirError(ValueError):
+class OutputDirError(DatasetError):
     """The output directory cannot be used as asked."""
 
 

@@ -31,6 +31,9 @@ import cv2
 import numpy as np
 from numba import njit
 
+from stereoforge.errors import ParameterTypeError
+from stereoforge.validation import check_int, check_keys, check_real, check_type, describe, fail
+
 __all__ = ["PhotometricParams", "PhotometricPair", "apply_photometric", "gaussian_noise"]
 
 #: Random bits per noise value: the quantile table has ``2**NOISE_BITS`` entries.
@@ -63,7 +66,7 @@ class PhotometricParams:
     >>> PhotometricParams(gain=0.0)
     Traceback (most recent call last):
     ...
-    ValueError: PhotometricParams.gain must be in (0, 4], got 0.0
+    stereoforge.errors.ParameterError: PhotometricParams.gain: expected a finite number in (0, 4], got 0.0
     """
 
     noise_sigma: float = 0.0
@@ -74,33 +77,20 @@ class PhotometricParams:
     jpeg_quality: int = 0
 
     def __post_init__(self) -> None:
-        bounds = {"noise_sigma": (0.0, 64.0, False), "gain": (0.0, 4.0, True),
-                  "bias": (-128.0, 128.0, False), "gamma": (0.1, 10.0, False),
-                  "blur_sigma": (0.0, 16.0, False)}
+        bounds = {"noise_sigma": (0, 64, False), "gain": (0, 4, True), "bias": (-128, 128, False),
+                  "gamma": (0.1, 10, False), "blur_sigma": (0, 16, False)}
         for name, (lo, hi, lo_open) in bounds.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
-                                                                  np.floating)):
-                raise TypeError(f"PhotometricParams.{name} must be a number, got {value!r}")
-            value = float(value)
-            ok = math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
-            if not ok:
-                interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
-                raise ValueError(f"PhotometricParams.{name} must be in {interval}, got {value!r}")
-            object.__setattr__(self, name, value)
-        q = self.jpeg_quality
-        if isinstance(q, bool) or not isinstance(q, (int, np.integer)) or not 0 <= q <= 100:
-            raise ValueError(f"PhotometricParams.jpeg_quality must be an int in [0, 100] "
-                             f"(0 = off), got {q!r}")
-        object.__setattr__(self, "jpeg_quality", int(q))
+            object.__setattr__(self, name, check_real(getattr(self, name),
+                                                      f"PhotometricParams.{name}", lo=lo, hi=hi,
+                                                      lo_open=lo_open))
+        object.__setattr__(self, "jpeg_quality", check_int(
+            self.jpeg_quality, "PhotometricParams.jpeg_quality", lo=0, hi=100,
+            fix="1..100 is the quality of a JPEG round trip, 0 turns it off"))
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> PhotometricParams:
         """Build from a mapping of field names (unknown names raise ``ValueError``)."""
-        unknown = sorted(set(values) - set(cls.__dataclass_fields__))
-        if unknown:
-            raise ValueError(f"unknown photometric parameters {unknown}; allowed: "
-                             f"{list(cls.__dataclass_fields__)}")
+        check_keys(values, "PhotometricParams", cls.__dataclass_fields__)
         return cls(**dict(values))
 
     def to_dict(self) -> dict[str, Any]:
@@ -161,9 +151,7 @@ def gaussian_noise(shape: tuple[int, ...], sigma: float, *,
     >>> bool((gaussian_noise((3,), 1.0, rng=5) == gaussian_noise((3,), 1.0, rng=5)).all())
     True
     """
-    if isinstance(sigma, bool) or not isinstance(sigma, (int, float, np.integer, np.floating)) \
-            or not (math.isfinite(sigma) and sigma >= 0):
-        raise ValueError(f"sigma must be a finite number >= 0, got {sigma!r}")
+    check_real(sigma, "sigma", lo=0)
     rng = np.random.default_rng(rng)
     size = math.prod(shape)
     words = rng.bit_generator.random_raw((size + 3) // 4)
@@ -248,16 +236,16 @@ def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricPa
     >>> bool((noisy.left != img).any()), noisy.left.dtype.name
     (True, 'uint8')
     """
-    if not isinstance(params, PhotometricParams):
-        raise TypeError(f"params must be a PhotometricParams, got {type(params).__name__}")
+    check_type(params, "params", PhotometricParams)
     for name, img in (("left", left), ("right", right)):
         if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.ndim not in (2, 3) \
                 or (img.ndim == 3 and img.shape[2] != 3):
-            got = f"{img.dtype} {img.shape}" if isinstance(img, np.ndarray) else type(img).__name__
-            raise TypeError(f"{name} must be an (H, W[, 3]) uint8 image, got {got}")
+            raise fail(name, "an (H, W) or (H, W, 3) uint8 image", describe(img),
+                       fix="convert with .astype(np.uint8); drop an alpha channel with [..., :3]",
+                       error=ParameterTypeError)
     if left.shape != right.shape:
-        raise ValueError(f"left and right must have one shape, got {left.shape} and "
-                         f"{right.shape}")
+        raise fail("left and right", "one shape", f"{left.shape} and {right.shape}",
+                   fix="render or crop both views to one size")
     if params.is_identity():
         return PhotometricPair(left, right)
     rng = np.random.default_rng(rng)

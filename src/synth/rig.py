@@ -8,15 +8,15 @@ z forward, metres), the right camera sits at ``(baseline, 0, 0)`` and
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
+from stereoforge.validation import check_choice, check_int, check_keys, check_real, fail
+
 __all__ = ["StereoRig"]
 
-_REAL = (int, float, np.integer, np.floating)
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "baseline", "near", "far")
 
 
@@ -60,39 +60,19 @@ class StereoRig:
 
     def __post_init__(self) -> None:
         for name in ("width", "height"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-                raise TypeError(
-                    f"StereoRig.{name} must be an int, got {type(value).__name__} {value!r}; "
-                    f"pass a whole number of pixels"
-                )
-            if value <= 0:
-                raise ValueError(
-                    f"StereoRig.{name} must be positive, got {value}; "
-                    f"pass the image {name} in pixels"
-                )
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, check_int(
+                getattr(self, name), f"StereoRig.{name}", lo=0, lo_open=True,
+                fix=f"pass the image {name} as a whole number of pixels"))
         for name in ("fx", "fy", "cx", "cy", "baseline", "near", "far"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, _REAL):
-                raise TypeError(
-                    f"StereoRig.{name} must be a real number, got {type(value).__name__} {value!r}"
-                )
-            if not math.isfinite(value):
-                raise ValueError(f"StereoRig.{name} must be finite, got {value}")
-            object.__setattr__(self, name, float(value))
-        for name in ("fx", "fy", "baseline"):
-            if getattr(self, name) <= 0:
-                unit = "metres" if name == "baseline" else "pixels"
-                raise ValueError(
-                    f"StereoRig.{name} must be positive, got {getattr(self, name)}; "
-                    f"pass a positive value in {unit}"
-                )
+            positive = name in ("fx", "fy", "baseline")
+            unit = "metres" if name in ("baseline", "near", "far") else "pixels"
+            object.__setattr__(self, name, check_real(
+                getattr(self, name), f"StereoRig.{name}", lo=0 if positive else None,
+                lo_open=True, fix=f"pass a {'positive ' if positive else ''}value in {unit}"))
         if not 0 < self.near < self.far:
-            raise ValueError(
-                f"StereoRig needs 0 < near < far, got near={self.near}, far={self.far}; "
-                "pass a positive near plane closer than the far plane"
-            )
+            raise fail("StereoRig.near, StereoRig.far", "0 < near < far",
+                       f"near={self.near}, far={self.far}",
+                       fix="pass a positive near plane closer than the far plane")
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -146,12 +126,7 @@ class StereoRig:
         >>> StereoRig.from_dict(rig.to_dict()) == rig
         True
         """
-        unknown = sorted(set(data) - set(_FIELDS))
-        if unknown:
-            raise ValueError(
-                f"StereoRig.from_dict got unknown keys {unknown}; "
-                f"expected a subset of {list(_FIELDS)}"
-            )
+        check_keys(data, "StereoRig.from_dict", _FIELDS)
         return cls(**dict(data))
 
     # ------------------------------------------------------------------ geometry
@@ -246,11 +221,10 @@ class StereoRig:
         >>> float(rig.plane_disparity([0.0, 0.0, -1.0], -2.0, eye="right")[3, 4])
         0.375
         """
-        if eye not in ("left", "right"):
-            raise ValueError(f"eye must be 'left' or 'right', got {eye!r}")
+        check_choice(eye, "eye", ("left", "right"))
         n = np.asarray(normal, dtype=np.float64)
         if n.shape != (3,) or not np.all(np.isfinite(n)) or not np.any(n):
-            raise ValueError(f"normal must be a finite non-zero 3-vector, got {normal!r}")
+            raise fail("normal", "a finite non-zero 3-vector", repr(normal))
         offset = float(c) - (n[0] * self.baseline if eye == "right" else 0.0)
         x = (np.arange(self.width, dtype=np.float64) - self.cx) / self.fx
         y = (np.arange(self.height, dtype=np.float64) - self.cy) / self.fy
@@ -282,16 +256,12 @@ class StereoRig:
         >>> (r.width, r.height, r.cx, r.cy) == (32, 24, 15.5, 11.5)
         True
         """
-        if isinstance(factor, bool) or not isinstance(factor, _REAL):
-            raise TypeError(f"factor must be a real number, got {type(factor).__name__}")
-        if not (math.isfinite(factor) and factor > 0):
-            raise ValueError(f"factor must be positive and finite, got {factor}")
+        check_real(factor, "factor", lo=0, lo_open=True)
         w, h = self.width * factor, self.height * factor
         if abs(w - round(w)) > 1e-9 or abs(h - round(h)) > 1e-9:
-            raise ValueError(
-                f"factor={factor} gives a {w} x {h} image for a {self.width} x {self.height} rig; "
-                "choose a factor that scales width and height to whole numbers"
-            )
+            raise fail("factor", f"a factor that scales {self.width} x {self.height} to whole "
+                       "numbers", f"{factor}, a {w} x {h} image",
+                       fix="choose a factor that scales width and height to whole numbers")
         return StereoRig(
             width=int(round(w)),
             height=int(round(h)),
@@ -344,15 +314,11 @@ class StereoRig:
         >>> StereoRig.default(64, 48).middlebury_calib(16, 1.5, 9.0)["cam0"].tolist()
         [[60.0, 0.0, 31.5], [0.0, 60.0, 23.5], [0.0, 0.0, 1.0]]
         """
-        if isinstance(ndisp, bool) or not isinstance(ndisp, (int, np.integer)) or ndisp <= 0:
-            raise ValueError(f"ndisp must be a positive int, got {ndisp!r}")
-        if not (math.isfinite(vmin) and math.isfinite(vmax) and 0 <= vmin <= vmax):
-            raise ValueError(
-                f"need finite 0 <= vmin <= vmax, got vmin={vmin}, vmax={vmax}; "
-                "pass the valid disparity range in pixels"
-            )
-        if not math.isfinite(doffs):
-            raise ValueError(f"doffs must be finite, got {doffs}")
+        check_int(ndisp, "ndisp", lo=0, lo_open=True)
+        if not check_real(vmin, "vmin", lo=0) <= check_real(vmax, "vmax", lo=0):
+            raise fail("vmin, vmax", "finite 0 <= vmin <= vmax", f"vmin={vmin}, vmax={vmax}",
+                       fix="pass the valid disparity range in pixels")
+        check_real(doffs, "doffs")
 
         def cam(cx: float) -> np.ndarray:
             return np.array([[self.fx, 0.0, cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])

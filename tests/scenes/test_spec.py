@@ -116,8 +116,8 @@ def _obj_dict(**changes) -> dict:
     ({"name": "s", "objects": [_obj_dict()], "light": {"colour": 1}},
      r"unknown key 'colour' in scene\.light"),
     ({"name": "s", "objects": [_obj_dict(kind="cube")]},
-     r"objects\[0\].*kind must be one of \['plane', 'box', 'sphere', 'cylinder', 'moebius', "
-     r"'terrain'\], got 'cube'"),
+     r"objects\[0\]: ObjectSpec\.kind: expected one of \['plane', 'box', 'sphere', 'cylinder', "
+     r"'moebius', 'terrain'\], got 'cube'"),
     ({"name": "s", "objects": [_obj_dict(texture={"kind": "perlin"})]},
      r"objects\[0\]\.texture.*\['noise', 'checker', 'stripes', 'constant'\], got 'perlin'"),
     ({"name": "s", "objects": [{"pose": {}, "size": [1.0]}]},
@@ -132,23 +132,34 @@ def test_dict_errors_name_the_problem(data: dict, pattern: str) -> None:
 
 
 @pytest.mark.parametrize(("build", "pattern"), [
-    (lambda: TextureSpec(contrast=1.5), r"contrast must be <= 1.0, got 1.5"),
-    (lambda: TextureSpec(contrast=-0.1), r"contrast must be >= 0.0"),
-    (lambda: TextureSpec(frequency=0.0), r"frequency must be > 0.0"),
-    (lambda: TextureSpec(mean=float("nan")), r"mean must be finite"),
-    (lambda: TextureSpec(color=(1.0, 1.0)), r"color must have 3 entries"),
-    (lambda: TextureSpec(seed=-1), r"seed must be in \[0, "),
-    (lambda: Pose(translation=(0.0, float("inf"), 0.0)), r"translation\[1\] must be finite"),
-    (lambda: ObjectSpec("box", Pose(), (1.0, 0.0, 1.0)), r"box sy must be > 0, got 0.0"),
-    (lambda: ObjectSpec("sphere", Pose(), (1.0, 2.0)), r"sphere \('radius',\) must have 1"),
-    (lambda: ObjectSpec("terrain", Pose(), (1.0, 1.0, -0.1)), r"amplitude must be > 0.*>= 0"),
-    (lambda: ObjectSpec("moebius", Pose(), (1.0, 2.0)), r"width must be < 2 \* radius"),
-    (lambda: ObjectSpec("sphere", Pose(), (1.0,), segments=2), r"segments must be in \[3, "),
-    (lambda: LightSpec(direction=(0.0, 0.0, 0.0)), r"direction must have a finite non-zero length"),
-    (lambda: LightSpec(intensity=-1.0), r"intensity must be >= 0.0"),
+    (lambda: TextureSpec(contrast=1.5),
+     r"^TextureSpec\.contrast: expected a finite number in \[0\.0, 1\.0\], got 1\.5$"),
+    (lambda: TextureSpec(contrast=-0.1), r"contrast: expected .* in \[0\.0, 1\.0\], got -0\.1"),
+    (lambda: TextureSpec(frequency=0.0), r"frequency: expected a finite number > 0\.0, got 0\.0"),
+    (lambda: TextureSpec(mean=float("nan")), r"mean: expected a finite number in \[0\.0, 1\.0\], "
+                                             r"got nan"),
+    (lambda: TextureSpec(color=(1.0, 1.0)), r"color: expected a sequence of 3 numbers, got 2 "
+                                            r"entries \(1\.0, 1\.0\)"),
+    (lambda: TextureSpec(seed=-1), r"seed: expected an integer in \[0, 9223372036854775808\), "
+                                   r"got -1"),
+    (lambda: Pose(translation=(0.0, float("inf"), 0.0)),
+     r"translation\[1\]: expected a finite number, got inf"),
+    (lambda: ObjectSpec("box", Pose(), (1.0, 0.0, 1.0)),
+     r"ObjectSpec\.size\[1\] \(sy of a box\): expected a finite number > 0\.0, got 0\.0"),
+    (lambda: ObjectSpec("sphere", Pose(), (1.0, 2.0)),
+     r"sphere \('radius',\): expected a sequence of 1 number, got 2 entries"),
+    (lambda: ObjectSpec("terrain", Pose(), (1.0, 1.0, -0.1)),
+     r"size\[2\] \(amplitude of a terrain\): expected a finite number >= 0\.0, got -0\.1"),
+    (lambda: ObjectSpec("moebius", Pose(), (1.0, 2.0)),
+     r"expected width < 2 \* radius, got \(1\.0, 2\.0\); narrow the strip"),
+    (lambda: ObjectSpec("sphere", Pose(), (1.0,), segments=2),
+     r"segments: expected an integer in \[3, 4096\], got 2"),
+    (lambda: LightSpec(direction=(0.0, 0.0, 0.0)),
+     r"direction: expected a finite non-zero length, got \(0\.0, 0\.0, 0\.0\); give a direction"),
+    (lambda: LightSpec(intensity=-1.0), r"intensity: expected a finite number >= 0\.0, got -1\.0"),
     (lambda: SceneSpec("s", (), ), r"at least one ObjectSpec"),
     (lambda: SceneSpec("s", (ObjectSpec("sphere", Pose(), (1.0,)),), background=(2.0, 0, 0)),
-     r"background\[0\] must be <= 1.0"),
+     r"background\[0\]: expected a finite number in \[0\.0, 1\.0\], got 2\.0"),
 ])
 def test_value_errors(build, pattern: str) -> None:
     with pytest.raises(ValueError, match=pattern):
@@ -156,12 +167,15 @@ def test_value_errors(build, pattern: str) -> None:
 
 
 @pytest.mark.parametrize(("build", "pattern"), [
-    (lambda: TextureSpec(frequency="4"), r"frequency must be a real number, got str"),
-    (lambda: TextureSpec(seed=1.0), r"seed must be an integer, got float"),
-    (lambda: TextureSpec(contrast=True), r"contrast must be a real number, got bool"),
-    (lambda: ObjectSpec("box", (0, 0, 0), (1.0, 1.0, 1.0)), r"pose must be a Pose, got tuple"),
-    (lambda: ObjectSpec("box", Pose(), 1.0), r"size .* must be a sequence of numbers"),
-    (lambda: SceneSpec("s", ("plane",)), r"objects\[0\] must be an ObjectSpec, got str"),
+    (lambda: TextureSpec(frequency="4"),
+     r"frequency: expected a finite number > 0\.0, got str '4'"),
+    (lambda: TextureSpec(seed=1.0), r"seed: expected an integer in \[0, .*\), got float 1\.0"),
+    (lambda: TextureSpec(contrast=True), r"contrast: expected a finite number .*, got bool True"),
+    (lambda: ObjectSpec("box", (0, 0, 0), (1.0, 1.0, 1.0)),
+     r"ObjectSpec\.pose: expected a Pose, got tuple \(0, 0, 0\)"),
+    (lambda: ObjectSpec("box", Pose(), 1.0), r"size .*: expected a sequence of 3 numbers, "
+                                             r"got float 1\.0"),
+    (lambda: SceneSpec("s", ("plane",)), r"objects\[0\]: expected an ObjectSpec, got str 'plane'"),
 ])
 def test_type_errors(build, pattern: str) -> None:
     with pytest.raises(TypeError, match=pattern):
@@ -187,3 +201,19 @@ def test_light_unit_direction_survives_tiny_and_huge_lengths(direction):
     # the squared norm of these under/overflows; the direction itself is fine
     u = LightSpec(direction=direction).unit_direction()
     assert np.isfinite(u).all() and abs(float(np.linalg.norm(u)) - 1.0) < 1e-12
+
+
+def test_scene_errors_are_stereoforge_errors_told_where() -> None:
+    from stereoforge.errors import ParameterError, ParameterTypeError, SceneError
+
+    with pytest.raises(SceneError, match=r"did you mean 'texture'\?"):
+        scene_from_dict({"name": "s", "objects": [_obj_dict(texure={})]})
+    with pytest.raises(ParameterError, match=r"^objects\[0\]: ObjectSpec\.size\[0\]"):
+        scene_from_dict({"name": "s", "objects": [_obj_dict(size=[-1.0, 1.0, 1.0])]})
+    with pytest.raises(ParameterTypeError, match=r"^objects\[0\]\.pose: Pose\.translation: "
+                                                 r"expected a sequence of 3 numbers, got str"):
+        scene_from_dict({"name": "s", "objects": [_obj_dict(pose={"translation": "0 0 1"})]})
+    with pytest.raises(TypeError, match=r"^scene\.objects: expected an array of tables"):
+        scene_from_dict({"name": "s", "objects": 3})
+    with pytest.raises(SceneError, match="suffix"):
+        load_scene("scene.yaml")

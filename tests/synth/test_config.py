@@ -88,14 +88,19 @@ occluders = 2
     ("edit", "line", "needles"),
     [
         (("occluders = 2", "ocluders = 2"), 9, ["unknown key 'ocluders'", "occluders"]),
-        (("width = 64", "width = 4"), 5, ["width = 4 is out of range", "[8, 8192]"]),
-        (('base = "boxes"', 'base = "box"'), 8, ["'box' is not allowed", "'fronto_plane'"]),
+        (("width = 64", "width = 4"), 5, ["rig.width: expected an integer in [8, 8192], got 4"]),
+        (('base = "boxes"', 'base = "box"'), 8,
+         ["scene.base: expected one of ['fronto_plane'", "got 'box'", "did you mean 'boxes'?"]),
         (("occluders = 2", "occluders = {uniform = [3, 1]}"), 9, ["a <= b"]),
         (("occluders = 2", "occluders = {normal = [0, 1]}"), 9, ["{uniform=[a,b]}"]),
         (("occluders = 2", "occluders = [1, 2]"), 9, ["{choice = [1, 2]}"]),
         (("seed = 1", "seed = {uniform = [1, 2]}"), 2, ["takes a fixed value"]),
         (("[rig]", "[rigs]"), 4, ["unknown key 'rigs'", "[rig]"]),
-        (("occluders = 2", "occluders = 2.5"), 9, ["must be an integer"]),
+        (("occluders = 2", "occluders = 2.5"), 9,
+         ["scene.occluders: expected an integer in [0, 64], got float 2.5"]),
+        (("occluders = 2", "occluders = {choice = [1, 'a']}"), 9,
+         ["scene.occluders.choice[1]: expected an integer", "got str 'a'"]),
+        (("seed = 1", "seed = true"), 2, ["seed: expected an integer", "got bool True"]),
     ],
 )
 def test_errors_name_file_line_and_allowed_values(edit, line, needles):
@@ -111,7 +116,8 @@ def test_errors_name_file_line_and_allowed_values(edit, line, needles):
 def test_photometric_range_error_gives_line_and_interval(tmp_path):
     path = tmp_path / "cfg.toml"
     path.write_text("count = 3\n\n[photometric]\n# comment\ngain = {uniform = [0.5, 9.0]}\n")
-    with pytest.raises(ConfigError, match=r"cfg\.toml:5: \[photometric\] gain .*\(0\.0, 4\.0\]"):
+    with pytest.raises(ConfigError, match=r"cfg\.toml:5: photometric\.gain\.uniform\[1\]: "
+                                          r"expected .*\(0\.0, 4\.0\], got 9\.0"):
         load_config(path)
 
 
@@ -130,7 +136,8 @@ def test_invalid_toml_and_missing_file(tmp_path):
 
 
 def test_near_far_checked_at_the_far_key():
-    with pytest.raises(ConfigError, match=r"<string>:3: \[rig\] need near < far"):
+    with pytest.raises(ConfigError, match=r"<string>:3: rig\.far: expected near < far, "
+                                          r"got near = 5\.0, far = 2\.0"):
         loads_config("[rig]\nnear = 5.0\nfar = 2.0\n")
 
 
@@ -138,3 +145,30 @@ def test_load_config_passes_parsed_configs_through():
     cfg = loads_config("count = 2")
     assert load_config(cfg) is cfg
     assert isinstance(cfg, DatasetConfig)
+
+
+# --------------------------------------------------------------------------- line numbers
+def test_line_after_a_multiline_string_that_mentions_a_table():
+    # the [scene] inside the string is no table header: the key is on line 6, not 3
+    text = 'name = """\n[scene]\noccluders = 1\n"""\n[scene]\noccluders = 99\n'
+    with pytest.raises(ConfigError, match=r"^my\.toml:6: scene\.occluders: expected an integer"):
+        loads_config(text, source="my.toml")
+    literal = text.replace('"""', "'''")
+    with pytest.raises(ConfigError, match=r"^my\.toml:6: scene\.occluders"):
+        loads_config(literal, source="my.toml")
+
+
+def test_line_inside_an_inline_table():
+    text = 'name = "t"\n\nscene = { base = "boxes", occluders = -1 }\n'
+    with pytest.raises(ConfigError, match=r"^my\.toml:3: scene\.occluders: expected an integer "
+                                          r"in \[0, 64\].*got -1"):
+        loads_config(text, source="my.toml")
+
+
+def test_line_of_a_dotted_key_and_of_an_unknown_key_in_an_inline_table():
+    with pytest.raises(ConfigError, match=r"^my\.toml:2: photometric\.gain: .*got 9\.0"):
+        loads_config("seed = 1\nphotometric.gain = 9.0\n", source="my.toml")
+    with pytest.raises(ConfigError, match=r"^my\.toml:2: unknown key 'gian' in \[photometric\]"
+                                          r".*did you mean 'gain'\?"):
+        loads_config("seed = 1\nphotometric = {\n  gian = 1.0 }\n".replace("{\n  ", "{ "),
+                     source="my.toml")

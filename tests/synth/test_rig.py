@@ -30,14 +30,14 @@ def test_K() -> None:
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [
-        ("width", 0, "width must be positive"),
-        ("height", -3, "height must be positive"),
-        ("fx", 0.0, "fx must be positive"),
-        ("fy", -1.0, "fy must be positive"),
-        ("baseline", 0.0, "baseline must be positive"),
+        ("width", 0, r"StereoRig\.width: expected an integer > 0, got 0; pass the image width"),
+        ("height", -3, r"height: expected an integer > 0, got -3"),
+        ("fx", 0.0, r"fx: expected a finite number > 0, got 0\.0; pass a positive value in pixels"),
+        ("fy", -1.0, r"fy: expected a finite number > 0, got -1\.0"),
+        ("baseline", 0.0, r"baseline: expected a finite number > 0, got 0\.0; .* in metres"),
         ("near", 0.0, "0 < near < far"),
         ("far", 0.05, "0 < near < far"),
-        ("cx", math.nan, "cx must be finite"),
+        ("cx", math.nan, r"StereoRig\.cx: expected a finite number, got nan"),
     ],
 )
 def test_validation_names_parameter(field: str, value: float, message: str) -> None:
@@ -48,7 +48,7 @@ def test_validation_names_parameter(field: str, value: float, message: str) -> N
 
 
 def test_width_must_be_int() -> None:
-    with pytest.raises(TypeError, match="width must be an int"):
+    with pytest.raises(TypeError, match=r"width: expected an integer > 0, got float 8\.0"):
         StereoRig(width=8.0, height=6, fx=5.0, fy=5.0, cx=3.5, cy=2.5, baseline=0.1)
 
 
@@ -104,7 +104,8 @@ def test_dict_round_trip_and_unknown_keys() -> None:
     rig = StereoRig(width=64, height=48, fx=61.25, fy=59.0, cx=30.0, cy=22.0, baseline=0.12,
                     near=0.5, far=50.0)
     assert StereoRig.from_dict(rig.to_dict()) == rig
-    with pytest.raises(ValueError, match="unknown keys"):
+    with pytest.raises(ValueError, match=r"unknown key 'skew' in StereoRig\.from_dict; "
+                                         r"valid keys: \['width', "):
         StereoRig.from_dict({**rig.to_dict(), "skew": 0.0})
 
 
@@ -122,3 +123,8 @@ def test_middlebury_calib_fields() -> None:
     assert shifted["cam1"].tolist() == [[60, 0, 35.5], [0, 60, 23.25], [0, 0, 1]]
     with pytest.raises(ValueError, match="vmin <= vmax"):
         rig.middlebury_calib(32, 9.0, 2.0)
+    assert rig.middlebury_calib(32, 0.0, 9.5)["vmin"] == 0.0  # 0 is a valid bound
+    with pytest.raises(ValueError, match=r"ndisp: expected an integer > 0, got bool True"):
+        rig.middlebury_calib(True, 2.0, 9.5)
+    with pytest.raises(ValueError, match=r"vmin: expected a finite number >= 0, got -1\.0"):
+        rig.middlebury_calib(32, -1.0, 9.5)

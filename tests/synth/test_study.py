@@ -64,30 +64,56 @@ def test_unknown_key_names_file_line_and_valid_keys():
     with pytest.raises(StudyConfigError) as exc:
         loads_study_config(text, source="s.toml")
     msg = str(exc.value)
-    assert msg.startswith("s.toml:14: scene.frequency: unknown key")
-    assert "frequencies_px" in msg and "edge_densities" in msg
-    with pytest.raises(StudyConfigError, match=r"^s\.toml:1: colour: unknown key; valid keys "
-                                               r"of the top level: name"):
+    assert msg.startswith("s.toml:14: unknown key 'frequency' in [scene]; valid keys: ")
+    assert "'edge_densities'" in msg and msg.endswith("did you mean 'frequencies_px'?")
+    with pytest.raises(StudyConfigError, match=r"^s\.toml:1: unknown key 'colour' in the "
+                                               r"top-level table; valid keys: \['name', "):
         loads_study_config("colour = 1\n" + TINY, source="s.toml")
 
 
 @pytest.mark.parametrize(
     "old, new, message",
     [
-        ('methods = ["ct", "awct"]', 'methods = ["ct", "sad"]', r"tiny\.toml:16: .*unknown method 'sad'"),
-        ("windows = [5, 15]", "windows = [4, 15]", r"tiny\.toml:17: .*odd integers"),
+        ('methods = ["ct", "awct"]', 'methods = ["ct", "sad"]', r"tiny\.toml:16: match\.methods\[1\]: expected one of \['ct', .*\], got 'sad'"),
+        ("windows = [5, 15]", "windows = [4, 15]", r"tiny\.toml:17: match\.windows\[0\]: expected an odd integer in \[3, 255\], got 4"),
         ("frequencies_px = [0.05, 0.15]", "frequencies_px = [0.6]", r"tiny\.toml:11: .*\(0, 0\.5\)"),
         ("frequencies_px = [0.05, 0.15]", "edge_densities = [0.1]\nfrequencies_px = [0.1]",
          r"exactly one of"),
-        ("max_disparity = 8", "max_disparity = 64", r"tiny\.toml:3: max_disparity: must be in"),
+        ("max_disparity = 8", "max_disparity = 64", r"tiny\.toml:3: max_disparity: expected an integer in \[1, 64\), got 64"),
         ("seeds = [3]", 'seeds = "3"', r"tiny\.toml:2: seeds: expected a non-empty array"),
-        ('kinds = ["slanted_plane"]', 'kinds = ["ocean"]', r"unknown scene 'ocean'"),
+        ('kinds = ["slanted_plane"]', 'kinds = ["ocean"]', r"tiny\.toml:10: scene\.kinds\[0\]: expected one of \[.*'slanted_plane'.*\], got 'ocean'"),
     ],
 )
 def test_bad_values_name_the_line(old, new, message):
     assert old in TINY
     with pytest.raises(StudyConfigError, match=message):
         loads_study_config(TINY.replace(old, new), source="tiny.toml")
+
+
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ('methods = ["ct", "awct"]\nwindows = [5, 15]', 'methods = ["bm"]\nwindows = [3, 5]',
+         r"tiny\.toml:17: match\.windows: expected windows >= 5 when methods include 'bm'"),
+        ("windows = [5, 15]", "windows = [5, 5]", r"tiny\.toml:17: match\.windows: expected "
+                                                  r"distinct .*, got 5 twice"),
+        ("width = 64", "width = 0", r"tiny\.toml:6: rig\.width: expected an integer > 0, got 0"),
+        ("height = 48", "height = 12", r"tiny\.toml:17: match\.windows: .*fit in the image, <= 12"),
+        ("[rig]\nwidth = 64\nheight = 48", "rig = 3", r"tiny\.toml:5: rig: expected a table \[rig\]"),
+    ],
+)
+def test_relations_and_tables_name_the_line(old, new, message):
+    assert old in TINY
+    with pytest.raises(StudyConfigError, match=message):
+        loads_study_config(TINY.replace(old, new), source="tiny.toml")
+
+
+def test_lines_after_a_multiline_description():
+    # [match] and windows inside the description are text, not a table and a key
+    text = ('description = """\n[match]\nwindows = [4]\n"""\n' + TINY).replace(
+        "windows = [5, 15]", "windows = [5, 16]")
+    with pytest.raises(StudyConfigError, match=r"^tiny\.toml:21: match\.windows\[1\]"):
+        loads_study_config(text, source="tiny.toml")
 
 
 def test_missing_config_file_lists_shipped_studies(tmp_path):

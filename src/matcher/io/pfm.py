@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from stereoforge.errors import FormatError
+
 __all__ = ["PFMError", "PFMHeader", "encode_pfm", "read_pfm", "read_pfm_header", "write_pfm"]
 
 _MAX_HEADER = 256  # bytes; real headers are ~20
@@ -36,7 +38,7 @@ _INT = re.compile(rb"[0-9]{1,10}")
 _REAL = re.compile(rb"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 
-class PFMError(ValueError):
+class PFMError(FormatError):
     """A PFM file is truncated, corrupt or not a PFM file."""
 
 

@@ -25,7 +25,10 @@ from typing import Any, Mapping
 import numpy as np
 
 from scenes import PRESETS
-from synth._toml import line_of
+from stereoforge.errors import ConfigError, StereoforgeError
+from stereoforge.schema import Key
+from stereoforge.validation import check_keys, describe
+from synth._toml import TomlSource
 from synth.rig import StereoRig
 
 __all__ = [
@@ -42,90 +45,66 @@ __all__ = [
 
 _MAX_SEED = 2**63
 DIST_KINDS = ("uniform", "loguniform", "choice")
+_DIST_SECTIONS = ("scene", "photometric")  # their keys may be distributions
+_DIST_FORMS = "{uniform=[a,b]}, {loguniform=[a,b]}, {choice=[...]}"
 
 
-class ConfigError(ValueError):
-    """A dataset configuration is invalid; the message gives ``file:line`` and the fix."""
-
-
-@dataclass(frozen=True)
-class _Key:
-    """Schema of one key: type, bounds or choices, default, whether it may be a distribution."""
-
-    type: str  # "float" | "int" | "str" | "bool"
-    default: Any
-    lo: float | None = None
-    hi: float | None = None
-    lo_open: bool = False
-    choices: tuple[Any, ...] | None = None
-    dist: bool = True
-    optional: bool = False  # default None means "not set"
-    doc: str = ""
-
-    def allowed(self) -> str:
-        """Human description of the allowed values."""
-        if self.choices is not None:
-            text = "one of " + ", ".join(repr(c) for c in self.choices)
-        elif self.type == "bool":
-            text = "true or false"
-        else:
-            lo = "-inf" if self.lo is None else repr(self.lo)
-            hi = "inf" if self.hi is None else repr(self.hi)
-            text = f"{'an integer' if self.type == 'int' else 'a number'} in {'(' if self.lo_open else '['}{lo}, {hi}]"
-        if self.dist:
-            text += " (or {uniform=[a,b]}, {loguniform=[a,b]}, {choice=[...]})" if self.type in (
-                "float", "int") else " (or {choice=[...]})"
-        return text
+def _allowed(section: str, spec: Key) -> str:
+    """What a key of ``section`` takes: its values, and the distributions if it may be one."""
+    if section not in _DIST_SECTIONS:
+        return spec.expected()
+    forms = _DIST_FORMS if spec.kind in ("float", "int") else "{choice=[...]}"
+    return f"{spec.expected()} (or {forms})"
 
 
 _SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
 _OCCLUDER_KINDS = ("box", "sphere", "cylinder")
 
 #: Every section, key and its schema (``""`` is the top level).
-SCHEMA: Mapping[str, Mapping[str, _Key]] = MappingProxyType({
+SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
     "": {
-        "name": _Key("str", "dataset", dist=False, doc="dataset name"),
-        "seed": _Key("int", 0, lo=0, hi=_MAX_SEED - 1, dist=False, doc="dataset seed"),
-        "count": _Key("int", 10, lo=1, hi=999_999, dist=False, doc="number of samples"),
-        "preview": _Key("bool", False, dist=False, doc="also write preview.png per sample"),
+        "name": Key("str", "dataset", doc="dataset name"),
+        "seed": Key("int", 0, lo=0, hi=_MAX_SEED - 1, doc="dataset seed"),
+        "count": Key("int", 10, lo=1, hi=999_999, doc="number of samples"),
+        "preview": Key("bool", False, doc="also write preview.png per sample"),
     },
     "rig": {
-        "width": _Key("int", 640, lo=8, hi=8192, dist=False, doc="image width, pixels"),
-        "height": _Key("int", 480, lo=8, hi=8192, dist=False, doc="image height, pixels"),
-        "fx": _Key("float", None, lo=0.0, lo_open=True, dist=False, optional=True,
-                   doc="focal length in pixels (fy = fx); default 600 * width / 640"),
-        "baseline": _Key("float", 0.1, lo=0.0, lo_open=True, hi=100.0, dist=False,
-                         doc="baseline, metres"),
-        "near": _Key("float", 0.1, lo=0.0, lo_open=True, dist=False, doc="near plane, metres"),
-        "far": _Key("float", 100.0, lo=0.0, lo_open=True, dist=False, doc="far plane, metres"),
+        "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),
+        "height": Key("int", 480, lo=8, hi=8192, doc="image height, pixels"),
+        "fx": Key("float", None, lo=0.0, lo_open=True,
+                  doc="focal length in pixels (fy = fx); default 600 * width / 640"),
+        "baseline": Key("float", 0.1, lo=0.0, lo_open=True, hi=100.0,
+                        doc="baseline, metres"),
+        "near": Key("float", 0.1, lo=0.0, lo_open=True, doc="near plane, metres"),
+        "far": Key("float", 100.0, lo=0.0, lo_open=True, doc="far plane, metres"),
     },
     "scene": {
-        "base": _Key("str", "fronto_plane", choices=tuple(PRESETS), doc="base preset"),
-        "texture": _Key("str", "preset", choices=_SCENE_TEXTURES,
-                        doc="texture kind of every object ('preset' keeps the preset's)"),
-        "frequency_px": _Key("float", None, lo=0.0, lo_open=True, hi=0.5, optional=True,
-                             doc="texture frequency, cycles per pixel at each object's depth"),
-        "contrast": _Key("float", None, lo=0.0, hi=1.0, optional=True, doc="texture contrast"),
-        "edge_density": _Key("float", None, lo=0.005, hi=0.45, optional=True,
-                             doc="target Canny edge density of the left image (closed loop)"),
-        "occluders": _Key("int", 0, lo=0, hi=64, doc="number of occluding objects added"),
-        "occluder_size": _Key("float", 0.15, lo=0.0, lo_open=True, hi=1.0,
-                              doc="occluder size, fraction of the image width"),
-        "occluder_depth": _Key("float", 1.5, lo=0.0, lo_open=True,
-                               doc="occluder centre depth, metres"),
-        "occluder_kind": _Key("str", "box", choices=_OCCLUDER_KINDS, doc="occluder shape"),
+        "base": Key("str", "fronto_plane", choices=tuple(PRESETS), doc="base preset"),
+        "texture": Key("str", "preset", choices=_SCENE_TEXTURES,
+                       doc="texture kind of every object ('preset' keeps the preset's)"),
+        "frequency_px": Key("float", None, lo=0.0, lo_open=True, hi=0.5,
+                            doc="texture frequency, cycles per pixel at each object's depth"),
+        "contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast"),
+        "edge_density": Key("float", None, lo=0.005, hi=0.45,
+                            doc="target Canny edge density of the left image (closed loop)"),
+        "occluders": Key("int", 0, lo=0, hi=64, doc="number of occluding objects added"),
+        "occluder_size": Key("float", 0.15, lo=0.0, lo_open=True, hi=1.0,
+                             doc="occluder size, fraction of the image width"),
+        "occluder_depth": Key("float", 1.5, lo=0.0, lo_open=True,
+                              doc="occluder centre depth, metres"),
+        "occluder_kind": Key("str", "box", choices=_OCCLUDER_KINDS, doc="occluder shape"),
     },
     "photometric": {
-        "noise_sigma": _Key("float", 0.0, lo=0.0, hi=64.0,
-                            doc="Gaussian noise standard deviation, grey levels (0..255)"),
-        "gain": _Key("float", 1.0, lo=0.0, lo_open=True, hi=4.0,
-                     doc="gain of the right image relative to the left"),
-        "bias": _Key("float", 0.0, lo=-128.0, hi=128.0,
-                     doc="bias of the right image relative to the left, grey levels"),
-        "gamma": _Key("float", 1.0, lo=0.1, hi=10.0, doc="gamma applied to both images"),
-        "blur_sigma": _Key("float", 0.0, lo=0.0, hi=16.0,
-                           doc="Gaussian blur standard deviation, pixels, both images"),
-        "jpeg_quality": _Key("int", 0, lo=0, hi=100, doc="JPEG round trip quality, 0 = off"),
+        "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,
+                           doc="Gaussian noise standard deviation, grey levels (0..255)"),
+        "gain": Key("float", 1.0, lo=0.0, lo_open=True, hi=4.0,
+                    doc="gain of the right image relative to the left"),
+        "bias": Key("float", 0.0, lo=-128.0, hi=128.0,
+                    doc="bias of the right image relative to the left, grey levels"),
+        "gamma": Key("float", 1.0, lo=0.1, hi=10.0, doc="gamma applied to both images"),
+        "blur_sigma": Key("float", 0.0, lo=0.0, hi=16.0,
+                          doc="Gaussian blur standard deviation, pixels, both images"),
+        "jpeg_quality": Key("int", 0, lo=0, hi=100, doc="JPEG round trip quality, 0 = off"),
     },
 })
 
@@ -234,88 +213,73 @@ class DatasetConfig:
 
 
 class _Parser:
+    """Checks the parsed TOML (or :meth:`DatasetConfig.to_dict`) against :data:`SCHEMA`."""
+
     def __init__(self, text: str, source: str) -> None:
-        self.text, self.source = text, source
+        self.toml = TomlSource(text, source, ConfigError)
+        self.source = source
 
-    def fail(self, section: str, key: str | None, message: str) -> ConfigError:
-        line = line_of(self.text, section, key) if self.text else None
-        where = f"{self.source}:{line}" if line else self.source
-        table = f"[{section}] " if section else ""
-        return ConfigError(f"{where}: {table}{message}")
+    def fail(self, section: str, key: str, expected: str, actual: str, *,
+             fix: str | None = None) -> ConfigError:
+        return self.toml.fail(tuple(p for p in (section, key) if p), expected, actual, fix=fix)
 
-    def scalar(self, section: str, key: str, spec: _Key, value: Any, what: str = "") -> Any:
-        label = f"{key}{what}"
+    def scalar(self, section: str, key: str, value: Any, part: tuple[str, ...] = ()) -> Any:
+        """One fixed value of ``section.key`` (``part`` names a bound or a choice of it)."""
+        spec = SCHEMA[section][key]
         if isinstance(value, dict):
-            raise self.fail(section, key, f"{label} takes a fixed value, not a distribution or "
-                            f"table; allowed: {spec.allowed()}")
-        if spec.type == "bool":
-            if not isinstance(value, bool):
-                raise self.fail(section, key, f"{label} must be true or false, got {value!r}")
-            return value
-        if spec.type == "str":
-            if not isinstance(value, str) or (spec.choices and value not in spec.choices):
-                raise self.fail(section, key, f"{label} = {value!r} is not allowed; "
-                                f"allowed: {spec.allowed()}")
-            return value
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(section, key, f"{label} must be a number, got {value!r}; "
-                            f"allowed: {spec.allowed()}")
-        if spec.type == "int":
-            if isinstance(value, float):
-                if not value.is_integer():
-                    raise self.fail(section, key, f"{label} must be an integer, got {value!r}; "
-                                    f"allowed: {spec.allowed()}")
-                value = int(value)
-        else:
-            value = float(value)
-        bad = not math.isfinite(value)
-        if spec.lo is not None:
-            bad |= value <= spec.lo if spec.lo_open else value < spec.lo
-        if spec.hi is not None:
-            bad |= value > spec.hi
-        if bad:
-            raise self.fail(section, key, f"{label} = {value!r} is out of range; "
-                            f"allowed: {spec.allowed()}")
-        return value
+            raise self.fail(section, key, f"a fixed value: {spec.expected()}",
+                            f"the table {value!r}",
+                            fix=f"{key} takes a fixed value, not a distribution or table")
+        dist_too = section in _DIST_SECTIONS and not part and spec.kind in ("float", "int")
+        path = (*(p for p in (section, key) if p), *part)
+        return self.toml.check(spec, value, path, scalar=True,
+                               fix=f"{_DIST_FORMS} are allowed too" if dist_too else None)
 
-    def dist(self, section: str, key: str, spec: _Key, value: Any) -> Dist:
+    def dist(self, section: str, key: str, value: Any) -> Dist:
+        spec = SCHEMA[section][key]
         if not isinstance(value, dict):
             if isinstance(value, list):
-                raise self.fail(section, key, f"{key} is a list; write a distribution as "
-                                f"{{choice = {value!r}}} or {{uniform = [a, b]}}")
-            return Dist("fixed", (self.scalar(section, key, spec, value),))
-        if not spec.dist:
-            raise self.fail(section, key, f"{key} takes a fixed value, not a distribution; "
-                            f"allowed: {spec.allowed()}")
+                raise self.fail(section, key, _allowed(section, spec), f"the array {value!r}",
+                                fix=f"write a distribution as {{choice = {value!r}}} or "
+                                    "{uniform = [a, b]}")
+            return Dist("fixed", (self.scalar(section, key, value),))
         if len(value) != 1 or next(iter(value)) not in DIST_KINDS:
-            raise self.fail(section, key, f"{key} = {value!r} is not a distribution; allowed: "
-                            "exactly one of {uniform=[a,b]}, {loguniform=[a,b]}, "
-                            "{choice=[...]}")
+            raise self.fail(section, key, f"a value or exactly one of {_DIST_FORMS}", repr(value))
         kind, args = next(iter(value.items()))
         if not isinstance(args, list) or not args:
-            raise self.fail(section, key, f"{key}: {kind} needs a non-empty list, got {args!r}")
+            raise self.fail(section, key, f"{{{kind} = [...]}} with a non-empty list",
+                            f"{{{kind} = {args!r}}}")
         if kind == "choice":
-            return Dist("choice", tuple(self.scalar(section, key, spec, v, f" choice[{i}]")
+            return Dist("choice", tuple(self.scalar(section, key, v, (f"choice[{i}]",))
                                         for i, v in enumerate(args)))
-        if spec.type not in ("float", "int"):
-            raise self.fail(section, key, f"{key} is a {spec.type}; only {{choice=[...]}} "
-                            f"applies; allowed: {spec.allowed()}")
+        if spec.kind not in ("float", "int"):
+            raise self.fail(section, key, _allowed(section, spec), repr(value),
+                            fix=f"{key} is a {spec.kind}: only {{choice=[...]}} applies")
         if len(args) != 2:
-            raise self.fail(section, key, f"{key}: {kind} needs [a, b], got {args!r}")
-        a, b = (self.scalar(section, key, spec, v, f" {kind} bound") for v in args)
+            raise self.fail(section, key, f"{{{kind} = [a, b]}}", repr(value))
+        a, b = (self.scalar(section, key, v, (f"{kind}[{i}]",)) for i, v in enumerate(args))
         if a > b:
-            raise self.fail(section, key, f"{key}: {kind} needs a <= b, got [{a}, {b}]")
+            raise self.fail(section, key, f"{{{kind} = [a, b]}} with a <= b", f"[{a}, {b}]",
+                            fix="swap the bounds")
         if kind == "loguniform" and a <= 0:
-            raise self.fail(section, key, f"{key}: loguniform needs a > 0, got [{a}, {b}]")
-        return Dist(kind, (a, b), integer=spec.type == "int")
+            raise self.fail(section, key, "{loguniform = [a, b]} with a > 0", f"[{a}, {b}]")
+        return Dist(kind, (a, b), integer=spec.kind == "int")
+
+    def keys(self, data: Mapping[str, Any], section: str, allowed: list[str], *,
+             fix: str | None = None) -> None:
+        """Every key of ``data`` is one of ``allowed`` (the error names the first other one)."""
+        unknown = [k for k in data if k not in allowed]
+        name = f"[{section}]" if section else "the top-level table"
+        try:
+            check_keys(data, name, allowed, fix=fix,
+                       where=self.toml.where(*(p for p in (section, *unknown[:1]) if p)))
+        except StereoforgeError as exc:
+            raise self.toml.convert(exc) from None
 
     def section(self, data: Mapping[str, Any], section: str) -> dict[str, Any]:
-        schema = SCHEMA[section]
-        for key in data:
-            if key not in schema:
-                raise self.fail(section, key, f"unknown key {key!r}; allowed keys: "
-                                f"{', '.join(schema)}")
-        return {k: data[k] for k in schema if k in data}
+        """The raw values of a table, its keys checked against the schema."""
+        self.keys(data, section, list(SCHEMA[section]))
+        return {k: data[k] for k in SCHEMA[section] if k in data}
 
     def parse(self, data: Mapping[str, Any]) -> DatasetConfig:
         if not isinstance(data, Mapping):
@@ -323,43 +287,42 @@ class _Parser:
                               f"{type(data).__name__}")
         tables = [s for s in SCHEMA if s]
         for key, value in data.items():
-            if key in tables:
-                if not isinstance(value, Mapping):
-                    raise self.fail("", key, f"{key} must be a table [{key}]")
-            elif key not in SCHEMA[""]:
-                raise self.fail("", key, f"unknown key {key!r}; allowed keys: "
-                                f"{', '.join([*SCHEMA[''], *tables])} (tables: "
-                                f"{', '.join(f'[{t}]' for t in tables)})")
-        top = {k: self.scalar("", k, SCHEMA[""][k], v) for k, v in data.items()
-               if k in SCHEMA[""]}
+            if key in tables and not isinstance(value, Mapping):
+                raise self.fail("", key, f"a table [{key}]", describe(value))
+        self.keys(data, "", [*SCHEMA[""], *tables],
+                  fix=f"the tables are {', '.join(f'[{t}]' for t in tables)}")
+        top = {k: self.scalar("", k, v) for k, v in data.items() if k in SCHEMA[""]}
         name = top.get("name", Path(self.source).stem if self.source != "<string>" else "dataset")
-        rig_kw = {k: self.scalar("rig", k, SCHEMA["rig"][k], v)
+        rig_kw = {k: self.scalar("rig", k, v)
                   for k, v in self.section(data.get("rig", {}), "rig").items()}
         rig_kw = {k: rig_kw.get(k, SCHEMA["rig"][k].default) for k in SCHEMA["rig"]}
         fx = rig_kw["fx"] if rig_kw["fx"] is not None else 600.0 * rig_kw["width"] / 640.0
         if not rig_kw["near"] < rig_kw["far"]:
-            raise self.fail("rig", "far", f"need near < far, got near={rig_kw['near']}, "
-                            f"far={rig_kw['far']}")
+            raise self.fail("rig", "far", "near < far",
+                            f"near = {rig_kw['near']}, far = {rig_kw['far']}",
+                            fix="put the far plane beyond the near plane")
         rig = StereoRig(width=rig_kw["width"], height=rig_kw["height"], fx=fx, fy=fx,
                         cx=(rig_kw["width"] - 1) / 2.0, cy=(rig_kw["height"] - 1) / 2.0,
                         baseline=rig_kw["baseline"], near=rig_kw["near"], far=rig_kw["far"])
         sections = {}
-        for sec in ("scene", "photometric"):
+        for sec in _DIST_SECTIONS:
             raw = self.section(data.get(sec, {}), sec)
             out = {}
             for key, spec in SCHEMA[sec].items():
                 if key in raw:
-                    out[key] = self.dist(sec, key, spec, raw[key])
+                    out[key] = self.dist(sec, key, raw[key])
                 elif not spec.optional:
                     out[key] = Dist("fixed", (spec.default,))
             sections[sec] = out
         scene = sections["scene"]
         if "edge_density" in scene and "frequency_px" in scene:
-            raise self.fail("scene", "edge_density", "edge_density and frequency_px exclude "
-                            "each other: edge_density chooses the frequency; remove one")
+            raise self.fail("scene", "edge_density", "edge_density or frequency_px, not both",
+                            "both", fix="they exclude each other: edge_density chooses the "
+                                        "frequency; remove one")
         if "edge_density" in scene and scene["texture"].to_toml() == "constant":
-            raise self.fail("scene", "edge_density", "edge_density needs a textured surface; "
-                            "texture = 'constant' has none")
+            raise self.fail("scene", "edge_density", "a textured surface",
+                            "texture = 'constant', which has none",
+                            fix="choose another texture or remove edge_density")
         return DatasetConfig(
             name=name, seed=top.get("seed", 0), count=top.get("count", 10),
             preview=top.get("preview", False), rig=rig,
@@ -374,15 +337,20 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     Raises
     ------
     ConfigError
-        ``source:line: [section] message; allowed: ...`` for a syntax error, an unknown key, a
-        value of the wrong type or out of range.
+        ``source:line: table.key: expected ..., got ...; fix`` for a value of the wrong type or
+        out of range, ``source:line: unknown key ...; valid keys: ...`` for an unknown key,
+        ``source: invalid TOML: ...`` for a syntax error.
 
     Examples
     --------
     >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
     Traceback (most recent call last):
     ...
-    synth.dataset.config.ConfigError: my.toml:2: [scene] unknown key 'ocluders'; allowed keys: base, texture, frequency_px, contrast, edge_density, occluders, occluder_size, occluder_depth, occluder_kind
+    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind']; did you mean 'occluders'?
+    >>> loads_config("[rig]\\nwidth = 4\\n", source="my.toml")
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.ConfigError: my.toml:2: rig.width: expected an integer in [8, 8192], got 4
     """
     try:
         data = tomllib.loads(text)

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from stereoforge.errors import DatasetError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
 from synth.export import FORMATS, prepare_output_dir, write_pair
@@ -63,11 +64,7 @@ _KITTI_DIRS = ("image_2", "image_3", "disp_occ_0", "disp_noc_0")
 _PHOTOMETRIC_STREAM = 3
 
 
-class DatasetError(ValueError):
-    """The dataset directory cannot be used as asked (other config, busy, not a dataset)."""
-
-
-class SampleError(RuntimeError):
+class SampleError(StereoforgeError, RuntimeError):
     """Rendering or writing one sample failed; ``index`` and ``seed`` reproduce it."""
 
     def __init__(self, index: int, seed: int, cause: str) -> None:

@@ -7,26 +7,62 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, Mapping
 
-from synth._toml import line_of
+from scenes import PRESETS
+from scenes.spec import TEXTURE_KINDS
+from stereoforge.errors import ConfigError, StereoforgeError
+from stereoforge.schema import Key
+from synth._toml import TomlSource
 from synth.rig import StereoRig
 
-__all__ = ["StudyConfig", "StudyConfigError", "load_study_config", "loads_study_config",
-           "list_studies"]
+__all__ = ["SCHEMA", "StudyConfig", "StudyConfigError", "load_study_config",
+           "loads_study_config", "list_studies"]
 
 _METHODS = ("ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm")
-_SCHEMA: dict[str, dict[str, str]] = {
-    "": {"name": "str", "description": "str", "seeds": "ints", "max_disparity": "int",
-         "delta": "float", "rig": "table", "scene": "table", "match": "table"},
-    "rig": {"width": "int", "height": "int", "baseline": "float", "fx": "float"},
-    "scene": {"kinds": "strs", "texture": "str", "frequencies_px": "floats",
-              "edge_densities": "floats", "contrasts": "floats", "noise_sigma": "float"},
-    "match": {"methods": "strs", "windows": "ints"},
-}
+_TEXTURES = tuple(k for k in TEXTURE_KINDS if k != "constant")  # a textured surface
+_MAX_SEED = 2**63
+_TABLES = ("rig", "scene", "match")
+
+#: Every table, key and its schema (``""`` is the top level); see docs/study.md.
+SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
+    "": {
+        "name": Key("str", None, doc="study name (default: the file's stem)"),
+        "description": Key("str", "", doc="free text"),
+        "seeds": Key("int", (0, 1, 2), lo=0, hi=_MAX_SEED, hi_open=True, array=True,
+                     distinct=True, doc="scene seeds of every cell"),
+        "max_disparity": Key("int", 48, lo=1, doc="disparity search range, below the width"),
+        "delta": Key("float", 3.0, lo=0.0, lo_open=True, doc="bad-pixel threshold, pixels"),
+    },
+    "rig": {
+        "width": Key("int", 320, lo=0, lo_open=True, doc="image width, pixels"),
+        "height": Key("int", 240, lo=0, lo_open=True, doc="image height, pixels"),
+        "baseline": Key("float", 0.2, lo=0.0, lo_open=True, doc="baseline, metres"),
+        "fx": Key("float", None, lo=0.0, lo_open=True, doc="focal length, pixels"),
+    },
+    "scene": {
+        "kinds": Key("str", ("slanted_plane", "boxes"), choices=tuple(PRESETS), array=True,
+                     distinct=True, doc="scene presets"),
+        "texture": Key("str", "noise", choices=_TEXTURES, doc="texture kind"),
+        "frequencies_px": Key("float", None, lo=0, hi=0.5, lo_open=True, hi_open=True,
+                              array=True, distinct=True, doc="texture frequencies, cycles/px"),
+        "edge_densities": Key("float", None, lo=0, hi=1, lo_open=True, hi_open=True,
+                              array=True, distinct=True, doc="target Canny edge densities"),
+        "contrasts": Key("float", (0.8,), lo=0, hi=1, lo_open=True, array=True,
+                         distinct=True, doc="texture contrasts"),
+        "noise_sigma": Key("float", 2.0, lo=0, hi=64, doc="sensor noise, grey levels"),
+    },
+    "match": {
+        "methods": Key("str", ("ct", "sct", "cthw", "awct", "awsct", "sgbm"), choices=_METHODS,
+                       array=True, distinct=True, doc="matchers compared"),
+        "windows": Key("int", (5, 9, 13, 17, 21), lo=3, hi=255, odd=True, array=True,
+                       distinct=True, doc="window sides"),
+    },
+})
 
 
-class StudyConfigError(ValueError):
+class StudyConfigError(ConfigError):
     """A study configuration is invalid; the message gives ``file:line`` and the valid keys."""
 
 
@@ -65,115 +101,63 @@ class StudyConfig:
 
 
 # --------------------------------------------------------------------------- config parsing
-def _coerce(kind: str, value: Any) -> Any:
-    def num(v: Any, integer: bool) -> Any:
-        ok = isinstance(v, int) if integer else isinstance(v, (int, float))
-        if isinstance(v, bool) or not ok:
-            raise TypeError("an integer" if integer else "a number")
-        return int(v) if integer else float(v)
-
-    if kind in ("int", "float"):
-        return num(value, kind == "int")
-    if kind == "str":
-        if not isinstance(value, str):
-            raise TypeError("a string")
-        return value
-    if not isinstance(value, list) or not value:
-        raise TypeError("a non-empty array")
-    if kind == "strs":
-        if not all(isinstance(v, str) for v in value):
-            raise TypeError("an array of strings")
-        return tuple(value)
-    return tuple(num(v, kind == "ints") for v in value)
-
-
 def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
-    """Parse a study configuration from TOML text (see :func:`load_study_config`)."""
+    """Parse a study configuration from TOML text (see :func:`load_study_config`).
+
+    Raises
+    ------
+    StudyConfigError
+        ``source:line: table.key: expected ..., got ...; fix`` (see :data:`SCHEMA`).
+
+    Examples
+    --------
+    >>> loads_study_config("[match]\\nwindows = [5, 8]\\n", source="s.toml")
+    Traceback (most recent call last):
+    ...
+    synth.jobs.study_config.StudyConfigError: s.toml:2: match.windows[1]: expected an odd integer in [3, 255], got 8
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise StudyConfigError(f"{source}: invalid TOML: {exc}") from None
+    toml = TomlSource(text, source, StudyConfigError)
+    top = toml.table(data, (), SCHEMA[""], skip=_TABLES)
+    tables = {name: toml.table(data.get(name, {}), (name,), SCHEMA[name]) for name in _TABLES}
+    scene = tables["scene"]
 
-    def fail(section: str, key: str, message: str) -> StudyConfigError:
-        line = line_of(text, section, key)
-        where = f"{source}:{line}" if line else source
-        return StudyConfigError(f"{where}: {section + '.' if section else ''}{key}: {message}")
+    def get(table: str, key: str) -> Any:
+        values = top if not table else tables[table]
+        return values[key] if key in values else SCHEMA[table][key].default
 
-    values: dict[str, dict[str, Any]] = {s: {} for s in _SCHEMA}
-    for section, schema in _SCHEMA.items():
-        table = data if not section else data.get(section, {})
-        if not isinstance(table, dict):
-            raise fail("", section, "expected a table")
-        for key, value in table.items():
-            if key not in schema:
-                raise fail(section, key, f"unknown key; valid keys of "
-                           f"{'[' + section + ']' if section else 'the top level'}: "
-                           f"{', '.join(schema)}")
-            if schema[key] == "table":
-                continue
-            try:
-                values[section][key] = _coerce(schema[key], value)
-            except TypeError as exc:
-                raise fail(section, key, f"expected {exc}, got {value!r}") from None
-    top, rig, scene, mt = (values[s] for s in ("", "rig", "scene", "match"))
-
-    def check(ok: bool, section: str, key: str, message: str) -> None:
-        if not ok:
-            raise fail(section, key, message)
-
-    from scenes import PRESETS
-    from scenes.spec import TEXTURE_KINDS
-
-    kinds = scene.get("kinds", ("slanted_plane", "boxes"))
-    for k in kinds:
-        check(k in PRESETS, "scene", "kinds", f"unknown scene {k!r}; valid: {', '.join(PRESETS)}")
-    texture = scene.get("texture", "noise")
-    check(texture in TEXTURE_KINDS and texture != "constant", "scene", "texture",
-          f"expected one of noise, checker, stripes, got {texture!r}")
     has_f, has_e = "frequencies_px" in scene, "edge_densities" in scene
-    check(has_f != has_e, "scene", "frequencies_px" if has_f else "edge_densities",
-          "give exactly one of frequencies_px (cycles per pixel) and edge_densities")
-    axis = "frequency" if has_f else "edge_density"
-    levels = scene["frequencies_px"] if has_f else scene["edge_densities"]
-    hi = 0.5 if has_f else 1.0
-    for lv in levels:
-        check(0 < lv < hi, "scene", "frequencies_px" if has_f else "edge_densities",
-              f"values must be in (0, {hi}), got {lv}")
-    contrasts = scene.get("contrasts", (0.8,))
-    check(all(0 < c <= 1 for c in contrasts), "scene", "contrasts", "values must be in (0, 1]")
-    noise = scene.get("noise_sigma", 2.0)
-    check(0 <= noise <= 64, "scene", "noise_sigma", f"must be in [0, 64] grey levels, got {noise}")
-    methods = mt.get("methods", ("ct", "sct", "cthw", "awct", "awsct", "sgbm"))
-    for m in methods:
-        check(m in _METHODS, "match", "methods", f"unknown method {m!r}; valid: {', '.join(_METHODS)}")
-    windows = mt.get("windows", (5, 9, 13, 17, 21))
-    check(all(3 <= w <= 255 and w % 2 for w in windows), "match", "windows",
-          "values must be odd integers in [3, 255]")
-    check("bm" not in methods or min(windows) >= 5, "match", "windows", "bm needs windows >= 5")
-    seeds = top.get("seeds", (0, 1, 2))
-    check(all(0 <= s < 2**63 for s in seeds), "", "seeds", "seeds must be in [0, 2**63)")
-    for section, key, group in (("scene", "kinds", kinds), ("scene", "contrasts", contrasts),
-                                ("", "seeds", seeds), ("match", "methods", methods),
-                                ("match", "windows", windows),
-                                ("scene", "frequencies_px" if has_f else "edge_densities", levels)):
-        check(len(set(group)) == len(group), section, key, "values must be distinct")
+    axis_key = "frequencies_px" if has_f else "edge_densities"
+    if has_f == has_e:
+        raise toml.fail(("scene", axis_key), "exactly one of frequencies_px (cycles per pixel) "
+                        "and edge_densities", "both" if has_f else "neither")
+    methods, windows = get("match", "methods"), get("match", "windows")
+    if "bm" in methods and min(windows) < 5:
+        raise toml.fail(("match", "windows"), "windows >= 5 when methods include 'bm'",
+                        repr(list(windows)), fix="drop the 3 or the 'bm'")
     try:
-        the_rig = StereoRig.default(rig.get("width", 320), rig.get("height", 240),
-                                    fx=rig.get("fx"), baseline=rig.get("baseline", 0.2))
-    except (TypeError, ValueError) as exc:
-        raise fail("", "rig", str(exc)) from None
-    max_disp = top.get("max_disparity", 48)
-    check(1 <= max_disp < the_rig.width, "", "max_disparity",
-          f"must be in [1, width = {the_rig.width}), got {max_disp}")
-    check(max(windows) <= min(the_rig.width, the_rig.height), "match", "windows",
-          "windows must fit in the image")
-    delta = top.get("delta", 3.0)
-    check(delta > 0, "", "delta", f"must be > 0, got {delta}")
+        the_rig = StereoRig.default(get("rig", "width"), get("rig", "height"),
+                                    fx=get("rig", "fx"), baseline=get("rig", "baseline"))
+    except StereoforgeError as exc:
+        raise StudyConfigError(f"{toml.where('rig')}: rig: {exc}") from None
+    max_disp = get("", "max_disparity")
+    if not max_disp < the_rig.width:
+        raise toml.fail(("max_disparity",), f"an integer in [1, {the_rig.width})",
+                        repr(max_disp), fix=f"keep it below rig.width = {the_rig.width}")
+    side = min(the_rig.width, the_rig.height)
+    if max(windows) > side:
+        raise toml.fail(("match", "windows"), f"windows that fit in the image, <= {side}",
+                        repr(list(windows)), fix="use smaller windows or a larger rig")
     return StudyConfig(
-        name=top.get("name", Path(source).stem), description=top.get("description", ""),
-        rig=the_rig, kinds=kinds, texture=texture, axis=axis, levels=levels,
-        contrasts=contrasts, noise_sigma=noise, seeds=seeds, methods=methods, windows=windows,
-        max_disparity=max_disp, delta=delta, source=source, text=text)
+        name=top.get("name", Path(source).stem), description=get("", "description"),
+        rig=the_rig, kinds=get("scene", "kinds"), texture=get("scene", "texture"),
+        axis="frequency" if has_f else "edge_density", levels=scene[axis_key],
+        contrasts=get("scene", "contrasts"), noise_sigma=get("scene", "noise_sigma"),
+        seeds=get("", "seeds"), methods=methods, windows=windows, max_disparity=max_disp,
+        delta=get("", "delta"), source=source, text=text)
 
 
 def list_studies() -> list[str]:

@@ -16,6 +16,8 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from stereoforge.errors import BackendError
+
 __all__ = ["BACKENDS", "DEBIAN_FIX", "GLBackendError", "check_backend_name", "check_threads",
            "choose_backend", "driver_threads", "fix_line", "platform_in_use", "refuse_late_threads",
            "resolve_backend"]
@@ -34,7 +36,7 @@ def fix_line(fix: str) -> str:
     return f"fix (Debian): {fix}" if fix.startswith("apt-get") else f"fix: {fix}"
 
 
-class GLBackendError(RuntimeError):
+class GLBackendError(BackendError):
     """No OpenGL backend could be started (the message names each one tried and the fix).
 
     ``fix``, where known, is the command that repairs it (``pip install ...`` for a missing
