@@ -41,8 +41,8 @@ import zlib
 from pathlib import Path
 from typing import Any
 
+from matcher.io import atomic_write_bytes
 from synth.engine import run_tasks
-from synth.io._atomic import atomic_write_bytes
 from synth.study_config import (
     StudyConfig,
     StudyConfigError,
