@@ -35,7 +35,6 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from skimage.feature import canny
 
 from matcher._kernels import canny_on_derivatives
 from matcher._validation import check_image
@@ -128,6 +127,10 @@ def canny_edges(
         raise ValueError(f"impl: expected one of {CANNY_IMPLS}, got {impl!r}")
     if impl == "opencv":
         return _canny_opencv(grey, dtype_max, float(sigma), lo, hi)
+    # imported here: scikit-image (and scipy.ndimage) cost ~0.25 s at import, and the default
+    # impl does not need them
+    from skimage.feature import canny
+
     scaled = grey.astype(np.float64) / dtype_max
     # Thresholds are passed on the 0..1 scale (float64's dtype max is 1 for scikit-image).
     return canny(scaled, sigma=float(sigma), low_threshold=lo, high_threshold=hi, mode="nearest")
