@@ -47,31 +47,31 @@ _U8_BITS_GE = tuple((f"if c > s{k}[x]", f"if c >= s{k}[x]") for k in range(8))
 MUTANTS = (
     Mutant(
         "census comparison flipped",
-        "src/matcher/_kernels.py",
+        "src/matcher/_kernels/census.py",
         (*_U8_BITS, ("centre[x] > src[x]", "centre[x] < src[x]")),
         "bit = I(p) < I(p') instead of the paper's I(p) > I(p') (Eq. 2)",
     ),
     Mutant(
         "census comparison not strict",
-        "src/matcher/_kernels.py",
+        "src/matcher/_kernels/census.py",
         (*_U8_BITS_GE, ("centre[x] > src[x]", "centre[x] >= src[x]")),
         "ties I(p) == I(p') set the bit",
     ),
     Mutant(
         "spiral order broken (rings start downwards)",
-        "src/matcher/census.py",
+        "src/matcher/patterns.py",
         (("out += [(-k, r) for k in range(0, r + 1)]", "out += [(k, r) for k in range(0, r + 1)]"),),
         "each ring runs clockwise from its start instead of counter-clockwise (Fig. 5)",
     ),
     Mutant(
         "disparity off by one",
-        "src/matcher/_kernels.py",
+        "src/matcher/_kernels/census.py",
         (("val = np.float64(d)", "val = np.float64(d + 1)"),),
         "the winner-takes-all result of CT/SCT is d + 1",
     ),
     Mutant(
         "ties go to the largest d",
-        "src/matcher/_kernels.py",
+        "src/matcher/_kernels/census.py",
         (("if c[i] < bc[i]:", "if c[i] <= bc[i]:"),),
         "winner-takes-all keeps the last minimum instead of the first",
     ),
@@ -84,13 +84,13 @@ MUTANTS = (
     ),
     Mutant(
         "N miscounted (one decrease too few)",
-        "src/matcher/_adaptive_kernels.py",
+        "src/matcher/_kernels/adaptive.py",
         (("if rn == n_decreases and", "if rn == n_decreases - 1 and"),),
         "AWCT stops after N - 1 consecutive decreases of the edge proportion",
     ),
     Mutant(
         "AWCT ignores the smaller window",
-        "src/matcher/_adaptive_kernels.py",
+        "src/matcher/_kernels/adaptive.py",
         (("            if b >= total_bits:\n                continue",
           "            if b >= 0:\n                continue"),),
         "pixels with a small window are scored over the largest window's code, not their prefix",

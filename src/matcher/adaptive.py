@@ -15,8 +15,8 @@ Window choice (:func:`select_windows`), per pixel ``p``, from the sides ``min_wi
   reaching the largest side first. With N = 5 and sides from 3, no side below 13 can be chosen.
 
 Matching: census codes are computed once per view at ``max_window``; the spiral bit order
-(:mod:`matcher.census`) makes the code of every smaller window a prefix of it, and the sparse
-patterns (:mod:`matcher.sparse`) are prefixes of each other too. The cost of a left pixel ``p``
+(:mod:`matcher.patterns`) makes the code of every smaller window a prefix of it, and the sparse
+patterns (:mod:`matcher.patterns`) are prefixes of each other too. The cost of a left pixel ``p``
 with window ``w_L(p)`` and a right pixel ``q = p - d`` with window ``w_R(q)`` is the Hamming
 distance of the two codes' first ``n_bits(min(w_L(p), w_R(q)))`` bits (the paper's "the smaller
 window size is selected"); winner-takes-all, ties to the smallest ``d``, as :func:`matcher.match`.
@@ -54,17 +54,12 @@ from typing import Literal
 import numba
 import numpy as np
 
-from matcher import _adaptive_kernels
-from matcher._validation import (
-    check_image,
-    check_int,
-    check_max_disparity,
-    check_same_shape,
-    check_window,
-)
-from matcher.census import MAX_WINDOW, _padded, _resolve_offsets, n_bits, n_words
+from matcher._kernels import adaptive_wta_kernel, edge_integral, select_windows_kernel
+from matcher._validation import check_image, check_int, check_max_disparity, check_same_shape, check_window
+from matcher.census import padded_grey
 from matcher.edges import CANNY_HIGH, CANNY_IMPLS, CANNY_LOW, CANNY_SIGMA, canny_edges
-from matcher.match import MatchResult, OpCounts, _census_ops
+from matcher.patterns import MAX_WINDOW, n_bits, resolve_offsets
+from matcher.result import MatchResult, OpCounts, census_ops
 
 __all__ = ["AdaptiveResult", "RIGHT_WINDOWS", "match_awct", "match_awsct", "select_windows"]
 
@@ -74,7 +69,7 @@ RIGHT_WINDOWS = ("left_pixel", "left_map", "right_edges")
 
 @dataclass(frozen=True)
 class AdaptiveResult(MatchResult):
-    """:class:`matcher.match.MatchResult` of AWCT/AWSCT, with the window maps.
+    """:class:`matcher.result.MatchResult` of AWCT/AWSCT, with the window maps.
 
     ``window`` is ``max_window``. Extra attributes:
 
@@ -104,7 +99,7 @@ def _code_tables(min_window: int, max_window: int, pattern: str) -> tuple[np.nda
     bits_of = np.zeros(max_window + 1, dtype=np.int64)
     for s in range(min_window, max_window + 1, 2):
         bits_of[s] = n_bits(s, pattern)
-    offsets = _resolve_offsets(max_window, pattern)
+    offsets = resolve_offsets(max_window, pattern)
     bits_of.flags.writeable = False
     offsets.flags.writeable = False
     return bits_of, offsets
@@ -192,7 +187,7 @@ def select_windows(
     sides = _window_sides(min_window, max_window)
     n = check_int(n_decreases, "n_decreases", lo=1, fix="the paper uses N = 5")
     out = np.empty(edges.shape, dtype=np.uint8)
-    _adaptive_kernels.select_windows_kernel(
+    select_windows_kernel(
         edges, sides, n, numba.get_num_threads(), np.zeros(1, np.int64), out
     )
     return out
@@ -233,7 +228,7 @@ def match_awct(
     right_windows : {"left_pixel", "left_map", "right_edges"}, default "left_pixel"
         Where the right view's windows come from (see the module docstring).
     pattern : {"dense", "sparse"}, default "dense"
-        ``"sparse"`` uses :func:`matcher.sparse.sparse_pattern` (AWSCT).
+        ``"sparse"`` uses :func:`matcher.patterns.sparse_pattern` (AWSCT).
     edges : (H, W) bool array or None, default None
         A precomputed edge map of the left image to use instead of Canny's (``sigma``, ``low``
         and ``high`` are then ignored for the left view).
@@ -292,7 +287,7 @@ def match_awct(
         )
     edges = _check_edges(edges)
     wmap = np.empty(grey_l.shape, dtype=np.uint8)  # chosen inside the kernel, row by row
-    integral, pad = _adaptive_kernels.edge_integral(edges, max_window)
+    integral, pad = edge_integral(edges, max_window)
     if right_windows == "right_edges":
         edges_r = canny_edges(right, sigma=sigma, low=low, high=high, impl=canny_impl)
         wmap_r = select_windows(
@@ -306,8 +301,8 @@ def match_awct(
     total_bits = int(bits_of[max_window])
     disp = np.empty(grey_l.shape, dtype=np.float32)
     rows = np.empty((grey_l.shape[0], 4), dtype=np.int64)
-    _adaptive_kernels.adaptive_wta_kernel(
-        _padded(grey_l, max_window), _padded(grey_r, max_window), offsets, max_window // 2,
+    adaptive_wta_kernel(
+        padded_grey(grey_l, max_window), padded_grey(grey_r, max_window), offsets, max_window // 2,
         wmap, wmap_r, bits_of, d, right_windows == "left_pixel", integral, pad, sides, n,
         right_mode, numba.get_num_threads(), np.zeros(1, np.int64), disp, rows,
     )
@@ -316,7 +311,7 @@ def match_awct(
         census_comparisons=int(rows[:, 2].sum() + rows[:, 3].sum()),
         hamming_words=int(rows[:, 1].sum()),
     )
-    ct_ops = _census_ops((h, w), total_bits, d)
+    ct_ops = census_ops((h, w), total_bits, d)
     ratio = 1.0 - ops.census_comparisons / ct_ops.census_comparisons
     params = {
         "min_window": int(sides[0]),
@@ -361,7 +356,7 @@ def match_awsct(
 ) -> AdaptiveResult:
     """Adaptive window sparse census transform (AWSCT, paper §3.3).
 
-    :func:`match_awct` with ``pattern="sparse"`` (:func:`matcher.sparse.sparse_pattern`); see
+    :func:`match_awct` with ``pattern="sparse"`` (:func:`matcher.patterns.sparse_pattern`); see
     there for the parameters.
 
     Examples

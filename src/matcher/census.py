@@ -1,22 +1,16 @@
-"""Census transform (CT) with the seed paper's spiral bit order, packed into uint64 words.
+"""Census transform (CT) packed into uint64 words, Hamming distances, and the fused census
+matcher behind :func:`matcher.match`.
 
-Bit order (paper §3.2, Fig. 5: "counter-clockwise from the centre outward"). Offsets are
-``(dy, dx)`` with ``y`` down (image rows) and ``x`` right. Ring ``r`` (the pixels with
-``max(|dy|, |dx|) == r``) starts right of the centre at ``(0, +r)`` and runs counter-clockwise
-*as seen on screen*: up the right edge to ``(-r, +r)``, left along the top edge to ``(-r, -r)``,
-down the left edge to ``(+r, -r)``, right along the bottom edge to ``(+r, +r)`` and up the right
-edge to ``(+1, +r)``. Ring 1 is therefore::
-
-    bit:  3 2 1        offsets: (-1,-1) (-1,0) (-1,+1)
-          4 . 0                 ( 0,-1)   .    ( 0,+1)
-          5 6 7                 (+1,-1) (+1,0) (+1,+1)
-
-Rings follow each other from the centre outward, so the code of a ``w x w`` window is a prefix
-(its first ``w*w - 1`` bits) of the code of every larger window at the same pixel. Bit ``i`` of a
-code is bit ``i % 64`` of word ``i // 64`` (little-endian words).
+Bit order: the spiral order of :mod:`matcher.patterns` (or a sparse or custom pattern). Bit ``i``
+of a code is bit ``i % 64`` of word ``i // 64`` (little-endian words).
 
 A bit is 1 iff the centre is brighter than the neighbour, ``I(p) > I(p')`` (paper Eq. 2).
 Outside the image the edge is replicated (``np.pad(mode="edge")``).
+
+:func:`census_disparity` runs one fused numba kernel (census codes -> Hamming -> optional box
+aggregation -> winner-takes-all -> optional LR check and subpixel), parallel over rows, without
+an ``(H, D, W)`` cost volume. Its result equals ``winner_takes_all(cost_volume(...))`` of
+:mod:`matcher.cost` / :mod:`matcher.select` exactly; the rules are documented there.
 """
 
 from __future__ import annotations
@@ -24,110 +18,16 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from matcher import _kernels
+from matcher._kernels import census_match_kernel, census_rows_kernel
 from matcher._validation import check_image, check_window
+from matcher.patterns import check_side, n_words, resolve_offsets
 
-__all__ = ["MAX_WINDOW", "census_transform", "hamming", "n_bits", "n_words", "spiral_offsets"]
+__all__ = ["census_disparity", "census_transform", "hamming", "padded_grey"]
 
-#: Largest window side accepted (its 65,024 bits keep uint16 costs below the sentinel 65,535).
-MAX_WINDOW = 255
-
-
-def _check_side(window: object) -> int:
-    """Validate a window side without an image: odd int in [3, MAX_WINDOW]."""
-    w = check_window(window, "window", image_shape=(1 << 30, 1 << 30))
-    if w > MAX_WINDOW:
-        raise ValueError(f"window: expected at most {MAX_WINDOW}, got {w}; use a smaller window")
-    return w
-
-
-def spiral_offsets(window: int) -> np.ndarray:
-    """Neighbour offsets of a square window in the spiral bit order.
-
-    Parameters
-    ----------
-    window : int
-        Odd window side, ``3 <= window <= MAX_WINDOW``.
-
-    Returns
-    -------
-    (window**2 - 1, 2) int64 array
-        ``(dy, dx)`` per bit; row ``k`` is the neighbour of bit ``k``.
-
-    References
-    ----------
-    Liaw et al., "Improving Census Transform by High-Pass with Haar Wavelet Transform and Edge
-    Detection", Sensors 20(9):2537, 2020, §3.2 and Fig. 5.
-
-    Examples
-    --------
-    >>> spiral_offsets(3).tolist()
-    [[0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [1, 0], [1, 1]]
-    >>> bool((spiral_offsets(7)[:24] == spiral_offsets(5)).all())
-    True
-    """
-    w = _check_side(window)
-    out = []
-    for r in range(1, w // 2 + 1):
-        out += [(-k, r) for k in range(0, r + 1)]  # up the right edge: (0,r) .. (-r,r)
-        out += [(-r, r - k) for k in range(1, 2 * r + 1)]  # left along the top
-        out += [(-r + k, -r) for k in range(1, 2 * r + 1)]  # down the left edge
-        out += [(r, -r + k) for k in range(1, 2 * r + 1)]  # right along the bottom
-        out += [(r - k, r) for k in range(1, r)]  # up the right edge to (1, r)
-    return np.asarray(out, dtype=np.int64).reshape(-1, 2)
-
-
-def _resolve_offsets(window: int, pattern: object) -> np.ndarray:
-    """Offsets (n, 2) int64 for ``pattern`` ("dense", "sparse" or an array) in a validated window."""
-    if isinstance(pattern, str):
-        if pattern == "dense":
-            return spiral_offsets(window)
-        if pattern == "sparse":
-            from matcher.sparse import sparse_pattern  # sparse.py imports this module
-
-            return sparse_pattern(window)
-        raise ValueError(
-            f"pattern: expected 'dense', 'sparse' or an (n, 2) offsets array, got {pattern!r}"
-        )
-    offsets = np.asarray(pattern)
-    if offsets.dtype.kind not in "iu" or offsets.ndim != 2 or offsets.shape[1] != 2:
-        raise ValueError(
-            "pattern: expected 'dense', 'sparse' or an (n, 2) integer array of (dy, dx) "
-            f"offsets, got array of shape {offsets.shape} and dtype {offsets.dtype}"
-        )
-    r = window // 2
-    if offsets.shape[0] == 0 or offsets.shape[0] > window * window - 1:
-        raise ValueError(
-            f"pattern: expected 1..{window * window - 1} offsets, got {offsets.shape[0]}"
-        )
-    if np.abs(offsets).max() > r or not np.any(offsets, axis=1).all():
-        raise ValueError(
-            f"pattern: expected non-zero offsets with |dy|, |dx| <= {r} for window {window}, "
-            f"got {offsets.tolist()}; enlarge the window or drop those offsets"
-        )
-    return offsets.astype(np.int64)
-
-
-def n_bits(window: int, pattern: object = "dense") -> int:
-    """Number of bits of a census code (``window**2 - 1`` for the dense pattern).
-
-    Examples
-    --------
-    >>> n_bits(21), n_bits(7, "sparse")
-    (440, 16)
-    """
-    return int(_resolve_offsets(_check_side(window), pattern).shape[0])
-
-
-def n_words(bits: int) -> int:
-    """Number of uint64 words holding ``bits`` bits.
-
-    Examples
-    --------
-    >>> n_words(440)
-    7
-    """
-    return (int(bits) + 63) // 64
+# Per-thread budget for the (strip, D, W) cost buffers of the aggregated path.
+_STRIP_BUDGET_BYTES = 48 * 2**20
+# Rows per work item of the per-pixel (non-aggregated) path.
+_ROWS_PER_ITEM = 2
 
 
 def _kernel_image(grey: np.ndarray) -> np.ndarray:
@@ -140,19 +40,94 @@ def _kernel_image(grey: np.ndarray) -> np.ndarray:
 def _codes_planar(grey: np.ndarray, offsets: np.ndarray, window: int) -> np.ndarray:
     """Census codes in the kernels' (H, n_words, W) layout; input trusted."""
     r = window // 2
-    padded = _padded(grey, window)
+    padded = padded_grey(grey, window)
     h, w = grey.shape
     out = np.empty((h, n_words(offsets.shape[0]), w), dtype=np.uint64)
-    _kernels.census_rows_kernel(
+    census_rows_kernel(
         padded, np.ascontiguousarray(offsets, dtype=np.int64), r, numba.get_num_threads(),
         np.zeros(1, np.int64), out,
     )
     return out
 
 
-def _padded(grey: np.ndarray, window: int) -> np.ndarray:
-    """The grey image as the kernels take it, edge-padded by ``window // 2``; input trusted."""
+def padded_grey(grey: np.ndarray, window: int) -> np.ndarray:
+    """The grey image as the census kernels take it, edge-padded by ``window // 2``.
+
+    Input trusted: an (H, W) grey array as :func:`matcher._validation.check_image` returns it.
+    uint8, float32 and float64 stay as they are, other dtypes become float32 (all exact).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> padded_grey(np.array([[1, 2]], np.uint8), 3).tolist()
+    [[1, 1, 2, 2], [1, 1, 2, 2], [1, 1, 2, 2]]
+    """
     return np.pad(_kernel_image(grey), window // 2, mode="edge")
+
+
+def _strip_rows(max_disparity: int, width: int, half: int) -> int:
+    per_row = 2 * max_disparity * width * 4
+    return int(np.clip(_STRIP_BUDGET_BYTES // per_row - 2 * half, 8, 64))
+
+
+def census_disparity(
+    grey_l: np.ndarray,
+    grey_r: np.ndarray,
+    offsets: np.ndarray,
+    *,
+    window: int,
+    max_disparity: int,
+    aggregate: int | None = None,
+    lr_tolerance: int | None = None,
+    subpixel: bool = False,
+) -> np.ndarray:
+    """Census winner-takes-all disparity of two grey views with the fused kernel; input trusted.
+
+    The engine of :func:`matcher.match` for ``"ct"``/``"sct"`` and of CTHW's half-resolution
+    match. No validation: the caller has checked everything :func:`matcher.match` checks.
+
+    Parameters
+    ----------
+    grey_l, grey_r : (H, W) uint8 or float arrays
+        Same shape, as :func:`matcher._validation.check_image` returns them.
+    offsets : (n, 2) int64 array
+        Census offsets inside the window (:func:`matcher.patterns.resolve_offsets`).
+    window : int
+        Odd window side; the images are edge-padded by ``window // 2``.
+    max_disparity : int
+        Number of candidates ``D``, ``1 <= D < W``.
+    aggregate : int or None, default None
+        Odd box side of the cost aggregation (``None``: per-pixel Hamming costs); the caller
+        makes sure ``aggregate**2 * n`` fits in uint32.
+    lr_tolerance : int or None, default None
+        Left-right check tolerance (``None``: no check).
+    subpixel : bool, default False
+        Parabola refinement.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Disparity; ``inf`` where the LR check fails.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matcher.patterns import spiral_offsets
+    >>> right = np.random.default_rng(0).integers(0, 256, (16, 24), dtype=np.uint8)
+    >>> d = census_disparity(np.roll(right, 2, axis=1), right, spiral_offsets(5), window=5,
+    ...                      max_disparity=4)
+    >>> float(np.median(d[:, 4:-2]))
+    2.0
+    """
+    half = 0 if aggregate is None else aggregate // 2
+    disp = np.empty(grey_l.shape, dtype=np.float32)
+    strip = _strip_rows(max_disparity, grey_l.shape[1], half) if half else _ROWS_PER_ITEM
+    census_match_kernel(
+        padded_grey(grey_l, window), padded_grey(grey_r, window), offsets, window // 2,
+        max_disparity, half, -1 if lr_tolerance is None else lr_tolerance, subpixel, strip,
+        numba.get_num_threads(), np.zeros(1, np.int64), disp,
+    )
+    return disp
 
 
 def census_transform(image: np.ndarray, *, window: int, pattern: object = "dense") -> np.ndarray:
@@ -163,10 +138,10 @@ def census_transform(image: np.ndarray, *, window: int, pattern: object = "dense
     image : (H, W) or (H, W, 3) uint8, integer or float array
         Grey or RGB image (RGB is converted to grey with BT.601 weights).
     window : int
-        Odd window side, ``3 <= window <= min(H, W)`` and ``<= MAX_WINDOW``.
+        Odd window side, ``3 <= window <= min(H, W)`` and ``<= MAX_WINDOW`` (255).
     pattern : {"dense", "sparse"} or (n, 2) int array, default "dense"
         ``"dense"``: every pixel of the window in spiral order; ``"sparse"``: the sparse census
-        pattern of :func:`matcher.sparse.sparse_pattern`; an array: custom ``(dy, dx)`` offsets,
+        pattern of :func:`matcher.patterns.sparse_pattern`; an array: custom ``(dy, dx)`` offsets,
         used in the given order.
 
     Returns
@@ -190,8 +165,8 @@ def census_transform(image: np.ndarray, *, window: int, pattern: object = "dense
     """
     grey = check_image(image, "image")
     w = check_window(window, "window", image_shape=grey.shape)
-    w = _check_side(w)
-    offsets = _resolve_offsets(w, pattern)
+    w = check_side(w)
+    offsets = resolve_offsets(w, pattern)
     return np.ascontiguousarray(_codes_planar(grey, offsets, w).transpose(0, 2, 1))
 
 

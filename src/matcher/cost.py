@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from matcher import _kernels
-from matcher._kernels import COST_SENTINEL
+from matcher._kernels import COST_SENTINEL, cost_volume_kernel
 from matcher._validation import check_max_disparity
 
 __all__ = ["AGG_SENTINEL", "COST_SENTINEL", "aggregate_cost", "cost_volume"]
@@ -73,7 +72,7 @@ def cost_volume(codes_left: np.ndarray, codes_right: np.ndarray, *, max_disparit
     h, w, _ = cl.shape
     d = check_max_disparity(max_disparity, w)
     out = np.empty((h, d, w), dtype=np.uint16)
-    _kernels.cost_volume_kernel(_planar(cl), _planar(cr), out)
+    cost_volume_kernel(_planar(cl), _planar(cr), out)
     return out
 
 

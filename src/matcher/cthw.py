@@ -4,9 +4,9 @@ Pipeline (every choice the paper leaves open is a keyword argument, defaults in 
 
 1. One Haar level of both views (:func:`matcher.haar.haar2d`, ``norm`` ["orthonormal"]; the
    census of ``LL`` does not depend on the scale).
-2. Census + Hamming + winner-takes-all on the two ``LL`` bands (half resolution) with
-   :func:`matcher.match.match` (``method="ct"``, or ``"sct"`` with ``pattern="sparse"``), window
-   ``window`` on the half-resolution grid, ``ceil(D / 2)`` candidates.
+2. Census + Hamming + winner-takes-all on the two ``LL`` bands (half resolution), as
+   :func:`matcher.match` does with ``method="ct"`` (or ``"sct"`` with ``pattern="sparse"``),
+   window ``window`` on the half-resolution grid, ``ceil(D / 2)`` candidates.
 3. The left ``HH`` band is binarised: a pixel is an *edge* when ``|HH| > hh_threshold``, with
    ``HH`` measured on the ``"average"`` scale (``(a - b - c + d) / 4`` of the 2 x 2 block, in
    grey levels of the input) whatever ``norm`` is, so the threshold means the same for both
@@ -21,7 +21,7 @@ Pipeline (every choice the paper leaves open is a keyword argument, defaults in 
 5. Back to full resolution: nearest-neighbour upsampling (each coarse pixel covers its 2 x 2
    block; a replicate-padded odd row/column is cropped) and disparity x 2 (even values only).
 
-Operation counts (:class:`matcher.match.OpCounts`) are those of the half-resolution census
+Operation counts (:class:`matcher.result.OpCounts`) are those of the half-resolution census
 match; ``params["ct_ops"]`` holds full-resolution CT's at the same window for comparison.
 """
 
@@ -36,7 +36,13 @@ from typing import Literal
 import numba
 import numpy as np
 
-from matcher import _cthw_kernels, _kernels
+from matcher._kernels import (
+    census_match_kernel,
+    disparity_range,
+    haar_padded_kernel,
+    key_shift,
+    path_mode_up_kernel,
+)
 from matcher._validation import (
     check_bool,
     check_image,
@@ -45,21 +51,22 @@ from matcher._validation import (
     check_same_shape,
     check_window,
 )
-from matcher.census import _resolve_offsets, n_bits
+from matcher.census import census_disparity
 from matcher.haar import HAAR_NORMS, haar2d
-from matcher.match import MatchResult, OpCounts, _census_ops, match
+from matcher.patterns import n_bits, resolve_offsets
+from matcher.result import MatchResult, OpCounts, census_ops
 
 __all__ = ["CTHWResult", "HH_THRESHOLD", "hh_edges", "match_cthw", "modify_disparity"]
 
 #: Default HH binarisation threshold, grey levels on the "average" scale.
 HH_THRESHOLD = 4.0
-#: Rows per work item of the half-resolution census kernel (as :func:`matcher.match.match`).
+#: Rows per work item of the half-resolution census kernel (as :func:`matcher.match`).
 _COARSE_ROWS_PER_ITEM = 2
 
 
 @dataclass(frozen=True)
 class CTHWResult(MatchResult):
-    """:class:`matcher.match.MatchResult` of :func:`match_cthw`, with the intermediate maps.
+    """:class:`matcher.result.MatchResult` of :func:`match_cthw`, with the intermediate maps.
 
     Attributes
     ----------
@@ -170,7 +177,7 @@ def modify_disparity(
     include_self = check_bool(include_self, "include_self")
     steps = _check_max_path(max_path)
     d = disparity if disparity.dtype in (np.float32, np.float64) else disparity.astype(np.float64)
-    ok, largest = _cthw_kernels.disparity_range(d)
+    ok, largest = disparity_range(d)
     if not ok:
         raise ValueError(
             "disparity: expected integer-valued disparities >= 0 (inf = invalid); "
@@ -201,15 +208,15 @@ def _path_mode_into(
 
     ``disparity`` : (H, W) float32/float64 integers in ``[0, n_disp)``, non-finite = invalid;
     ``out`` : float32, ``up`` times the mode (``inf`` for none) in each ``up x up`` cell,
-    cropped to ``out``'s shape (:func:`matcher._cthw_kernels.path_mode_up_kernel`).
+    cropped to ``out``'s shape (:func:`matcher._kernels.cthw.path_mode_up_kernel`).
     """
     h, w = disparity.shape
     steps = min(steps, h + w)  # no path is longer; keeps index math small
-    sh = _cthw_kernels.key_shift(n_disp)
+    sh = key_shift(n_disp)
     # vote keys: count << sh | (2**sh - 1 - d); int32 unless the counts could overflow it
     key_dtype = np.int32 if (h + w + 2) << sh < 2**31 else np.int64
     block = max(16, -(-w // numba.get_num_threads()))  # one block per worker
-    _cthw_kernels.path_mode_up_kernel(
+    path_mode_up_kernel(
         disparity, np.ascontiguousarray(edges), n_disp, sh, include_edge, include_self, steps,
         block, up, np.empty(0, key_dtype), out,
     )
@@ -218,7 +225,7 @@ def _path_mode_into(
 @functools.lru_cache(maxsize=32)
 def _census_tables(window: int, pattern: str) -> tuple[np.ndarray, int]:
     """``(offsets, n_bits)`` of a census window, cached (read-only offsets)."""
-    offsets = _resolve_offsets(window, pattern).copy()
+    offsets = resolve_offsets(window, pattern).copy()
     offsets.flags.writeable = False
     return offsets, n_bits(window, pattern)
 
@@ -232,7 +239,7 @@ def _coarse_uint8(
     ``LL`` of either norm is a positive power-of-two multiple of the 2 x 2 sum, so the census
     of the integer sums (uint16, 0..1020) is bit-identical to that of the float ``LL`` band,
     and it runs on the integer kernel path. Returns the coarse disparity (as
-    :func:`matcher.match.match`), its operation counts, the integer ``HH`` sums of the left
+    :func:`matcher.match`), its operation counts, the integer ``HH`` sums of the left
     view (4 x the ``"average"`` scale) and, if ``threshold >= 0``, its edges
     (:func:`hh_edges` with that absolute threshold; otherwise the array is not filled).
     """
@@ -242,17 +249,17 @@ def _coarse_uint8(
     pr = np.empty_like(pl)
     hh_l = np.empty((h2, w2), np.int16)
     edges = np.empty((h2, w2), np.bool_)
-    _cthw_kernels.haar_padded_kernel(
+    haar_padded_kernel(
         np.ascontiguousarray(grey_l), np.ascontiguousarray(grey_r), r, threshold, pl, pr, hh_l,
         edges,
     )
     offsets, bits = _census_tables(window, pattern)
     disp = np.empty((h2, w2), dtype=np.float32)
-    _kernels.census_match_kernel(
+    census_match_kernel(
         pl, pr, offsets, r, d_half, 0, -1, False, _COARSE_ROWS_PER_ITEM,
         numba.get_num_threads(), np.zeros(1, np.int64), disp,
     )
-    ops = _census_ops((h2, w2), bits, d_half)
+    ops = census_ops((h2, w2), bits, d_half)
     return disp, ops, hh_l, edges
 
 
@@ -290,7 +297,7 @@ def match_cthw(
     norm : {"orthonormal", "average"}, default "orthonormal"
         Haar scaling (:func:`matcher.haar.haar2d`); does not change the result.
     pattern : {"dense", "sparse"}, default "dense"
-        Census pattern of the ``LL`` match (``"sparse"``: :func:`matcher.sparse.sparse_pattern`).
+        Census pattern of the ``LL`` match (``"sparse"``: :func:`matcher.patterns.sparse_pattern`).
     include_edge, include_self, max_path
         Path-search rules, see :func:`modify_disparity`.
 
@@ -353,11 +360,11 @@ def match_cthw(
     else:
         bands_l = haar2d(grey_l, norm=norm)
         bands_r = haar2d(grey_r, norm=norm)
-        coarse = match(
-            bands_l.ll, bands_r.ll, method="ct" if pattern == "dense" else "sct", window=window,
+        coarse_disp = census_disparity(
+            bands_l.ll, bands_r.ll, resolve_offsets(window, pattern), window=window,
             max_disparity=d_half,
         )
-        coarse_disp, coarse_ops = coarse.disparity, coarse.ops
+        coarse_ops = census_ops((h2, w2), n_bits(window, pattern), d_half)
         hh_avg = bands_l.hh * (HAAR_NORMS["average"] / HAAR_NORMS[norm])
         edges = hh_edges(hh_avg, threshold=hh_threshold, relative=hh_relative)
     # path search and nearest-neighbour upsampling (disparity x 2) in one kernel; the coarse
@@ -368,7 +375,7 @@ def match_cthw(
         steps=_check_max_path(max_path), up=2,
     )
     bits = _census_tables(window, pattern)[1]
-    ct_ops = _census_ops((h, w), bits, d_full)
+    ct_ops = census_ops((h, w), bits, d_full)
     params = {
         "hh_threshold": hh_threshold,
         "hh_relative": hh_relative,

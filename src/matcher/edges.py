@@ -19,7 +19,7 @@ scikit-image's ``truncate=4``, ``BORDER_REPLICATE`` = ``mode="nearest"``), 3 x 3
 derivatives (the same unnormalised ``[1, 2, 1] x [-1, 0, 1]`` kernels as scikit-image), and
 ``cv2.Canny(dx, dy, ..., L2gradient=True)`` on the derivatives; that last stage (non-maximum
 suppression and hysteresis, which OpenCV runs mostly on one thread) is a bit-identical numba
-port, :mod:`matcher._canny_kernels`, run in parallel strips. Threshold mapping: OpenCV
+port, :mod:`matcher._kernels.canny`, run in parallel strips. Threshold mapping: OpenCV
 compares the L2 magnitude of the derivatives it is given, so with derivatives of the
 ``0..255``-scaled image multiplied by ``8`` (and rounded to int16) the thresholds are
 ``low * 255 * 8`` and ``high * 255 * 8``, the same fractions as scikit-image's. The outermost
@@ -35,9 +35,8 @@ from __future__ import annotations
 import numbers
 
 import numpy as np
-from skimage.feature import canny
 
-from matcher import _canny_kernels
+from matcher._kernels import canny_on_derivatives
 from matcher._validation import check_image
 
 __all__ = ["CANNY_HIGH", "CANNY_IMPLS", "CANNY_LOW", "CANNY_SIGMA", "canny_edges"]
@@ -128,6 +127,10 @@ def canny_edges(
         raise ValueError(f"impl: expected one of {CANNY_IMPLS}, got {impl!r}")
     if impl == "opencv":
         return _canny_opencv(grey, dtype_max, float(sigma), lo, hi)
+    # imported here: scikit-image (and scipy.ndimage) cost ~0.25 s at import, and the default
+    # impl does not need them
+    from skimage.feature import canny
+
     scaled = grey.astype(np.float64) / dtype_max
     # Thresholds are passed on the 0..1 scale (float64's dtype max is 1 for scikit-image).
     return canny(scaled, sigma=float(sigma), low_threshold=lo, high_threshold=hi, mode="nearest")
@@ -156,7 +159,7 @@ def _canny_opencv(
     # = cv2.Canny(dx16, dy16, lo * scale, hi * scale, L2gradient=True) > 0, bit for bit
     # (tests/matcher/test_canny_kernels.py), with OpenCV's mostly single-threaded
     # suppression and hysteresis run in parallel strips
-    edges = _canny_kernels.canny_on_derivatives(dx16, dy16, lo * scale, hi * scale)
+    edges = canny_on_derivatives(dx16, dy16, lo * scale, hi * scale)
     edges[0, :] = edges[-1, :] = False
     edges[:, 0] = edges[:, -1] = False
     return edges

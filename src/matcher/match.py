@@ -1,22 +1,18 @@
-"""The ``match`` API: census (CT), sparse census (SCT) and the OpenCV baselines (BM, SGBM).
+"""The ``match`` API, the dispatcher at the top of matcher's graph: census (CT), sparse census
+(SCT), the seed paper's CTHW, AWCT and AWSCT, and the OpenCV baselines (BM, SGBM).
 
-The census methods run one fused numba kernel (census codes -> Hamming -> optional box
-aggregation -> winner-takes-all -> optional LR check and subpixel), parallel over rows, without an
-``(H, D, W)`` cost volume. Its result equals ``winner_takes_all(cost_volume(...))`` of
-:mod:`matcher.cost` / :mod:`matcher.select` exactly; the rules are documented there.
+CT and SCT run the fused census kernel of :func:`matcher.census.census_disparity`; CTHW and
+AWCT/AWSCT are :func:`matcher.cthw.match_cthw` and :func:`matcher.adaptive.match_awct` /
+``match_awsct`` with their defaults.
 """
 
 from __future__ import annotations
 
 import types
-from collections.abc import Mapping
-from dataclasses import dataclass
 
 import cv2
-import numba
 import numpy as np
 
-from matcher import _kernels
 from matcher._validation import (
     check_bool,
     check_image,
@@ -24,60 +20,17 @@ from matcher._validation import (
     check_same_shape,
     check_window,
 )
-from matcher.census import _check_side, _padded, _resolve_offsets, n_words
+from matcher.adaptive import match_awct, match_awsct
+from matcher.census import census_disparity
+from matcher.cthw import match_cthw
+from matcher.patterns import check_side, resolve_offsets
+from matcher.result import MatchResult, census_ops
 
-__all__ = ["METHODS", "MatchResult", "OpCounts", "match"]
+__all__ = ["METHODS", "match"]
 
 #: Accepted values of ``match(method=...)``.
 METHODS = ("ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm")
 _PAPER_METHODS = ("cthw", "awct", "awsct")
-
-# Per-thread budget for the (strip, D, W) cost buffers of the aggregated path.
-_STRIP_BUDGET_BYTES = 48 * 2**20
-# Rows per work item of the per-pixel (non-aggregated) path.
-_ROWS_PER_ITEM = 2
-
-
-@dataclass(frozen=True)
-class OpCounts:
-    """Operation counts of a census match (both views).
-
-    Attributes
-    ----------
-    census_comparisons : int
-        Census bits computed, summed over the pixels of both images: ``2 * H * W * n_bits``.
-    hamming_words : int
-        64-bit XOR + popcount operations of the per-pixel Hamming costs: ``n_words`` per left
-        pixel and candidate, ``H * n_words * sum_{d < D} (W - d)``. Counted algorithmically: the
-        LR check reuses these costs, and the aggregation's recomputed halo rows are not counted.
-    """
-
-    census_comparisons: int
-    hamming_words: int
-
-
-@dataclass(frozen=True, eq=False)
-class MatchResult:
-    """Output of :func:`match`.
-
-    Attributes
-    ----------
-    disparity : (H, W) float32 array
-        Left-view disparity in pixels; ``inf`` where invalid.
-    ops : OpCounts or None
-        Operation counts for "ct" and "sct"; ``None`` for "bm" and "sgbm" (not defined).
-    method, window, max_disparity
-        The arguments used.
-    params : Mapping[str, object]
-        Every other setting (read-only), including OpenCV's for the baselines.
-    """
-
-    disparity: np.ndarray
-    ops: OpCounts | None
-    method: str
-    window: int
-    max_disparity: int
-    params: Mapping[str, object]
 
 
 def _to_uint8(grey_l: np.ndarray, grey_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -133,20 +86,6 @@ def _match_opencv(
     return disp.astype(np.float32), params
 
 
-def _census_ops(shape: tuple[int, int], bits: int, max_disparity: int) -> OpCounts:
-    h, w = shape
-    d = max_disparity
-    return OpCounts(
-        census_comparisons=2 * h * w * bits,
-        hamming_words=h * n_words(bits) * (d * w - d * (d - 1) // 2),
-    )
-
-
-def _strip_rows(max_disparity: int, width: int, half: int) -> int:
-    per_row = 2 * max_disparity * width * 4
-    return int(np.clip(_STRIP_BUDGET_BYTES // per_row - 2 * half, 8, 64))
-
-
 def match(
     left: np.ndarray,
     right: np.ndarray,
@@ -166,7 +105,7 @@ def match(
     left, right : (H, W) or (H, W, 3) uint8, integer or float arrays
         Rectified views, same shape; RGB is converted to grey (BT.601).
     method : {"ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm"}, default "ct"
-        Dense census, sparse census (:func:`matcher.sparse.sparse_pattern`), the seed paper's
+        Dense census, sparse census (:func:`matcher.patterns.sparse_pattern`), the seed paper's
         census with Haar wavelet (:func:`matcher.cthw.match_cthw`), adaptive-window census
         and adaptive sparse census (:func:`matcher.adaptive.match_awct` / ``match_awsct``, with
         ``window`` as the largest window and every other option at its documented default;
@@ -220,7 +159,7 @@ def match(
     grey_l = check_image(left, "left")
     grey_r = check_image(right, "right")
     check_same_shape(grey_l, grey_r)
-    window = _check_side(check_window(window, "window", image_shape=grey_l.shape))
+    window = check_side(check_window(window, "window", image_shape=grey_l.shape))
     max_disparity = check_max_disparity(max_disparity, grey_l.shape[1])
     lr_check = check_bool(lr_check, "lr_check")
     subpixel = check_bool(subpixel, "subpixel")
@@ -249,10 +188,6 @@ def match(
                 f"lr_check, subpixel and aggregate are not defined for method={method!r} (the "
                 "paper's methods are per-pixel Hamming + winner-takes-all); leave them unset"
             )
-        # imported here: these modules build on MatchResult/OpCounts from this module
-        from matcher.adaptive import match_awct, match_awsct
-        from matcher.cthw import match_cthw
-
         if method == "cthw":
             return match_cthw(left, right, window=window, max_disparity=max_disparity)
         paper_match = match_awct if method == "awct" else match_awsct
@@ -267,23 +202,19 @@ def match(
         return MatchResult(disp, None, method, window, max_disparity,
                            types.MappingProxyType(params))
 
-    offsets = _resolve_offsets(window, "dense" if method == "ct" else "sparse")
+    offsets = resolve_offsets(window, "dense" if method == "ct" else "sparse")
     bits = int(offsets.shape[0])
-    half = 0 if aggregate is None else aggregate // 2
     if aggregate is not None and aggregate * aggregate * bits >= 2**32 - 1:
         raise ValueError(
             f"aggregate: {aggregate}x{aggregate} boxes of {bits}-bit costs overflow uint32; "
             "use a smaller aggregate or window"
         )
-    disp = np.empty(grey_l.shape, dtype=np.float32)
-    strip = _strip_rows(max_disparity, grey_l.shape[1], half) if half else _ROWS_PER_ITEM
-    _kernels.census_match_kernel(
-        _padded(grey_l, window), _padded(grey_r, window), offsets, window // 2, max_disparity,
-        half, lr_tolerance if lr_check else -1, subpixel, strip, numba.get_num_threads(),
-        np.zeros(1, np.int64), disp,
+    disp = census_disparity(
+        grey_l, grey_r, offsets, window=window, max_disparity=max_disparity, aggregate=aggregate,
+        lr_tolerance=lr_tolerance if lr_check else None, subpixel=subpixel,
     )
     params["n_bits"] = bits
     return MatchResult(
-        disp, _census_ops(grey_l.shape, bits, max_disparity), method, window, max_disparity,
+        disp, census_ops(grey_l.shape, bits, max_disparity), method, window, max_disparity,
         types.MappingProxyType(params),
     )

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from hypothesis import strategies as st
 
+from matcher.patterns import sparse_pattern
+
 __all__ = [
     "windows",
     "grey_images",
@@ -222,6 +224,4 @@ def monotone_maps(draw) -> np.ndarray:
 
 def sparse_patterns(*, min_size: int = 3, max_size: int = 21) -> st.SearchStrategy[np.ndarray]:
     """The project's sparse-census offset patterns, ``(n, 2)`` (dy, dx) in bit order."""
-    from matcher.sparse import sparse_pattern
-
     return windows(min_size=min_size, max_size=max_size).map(sparse_pattern)

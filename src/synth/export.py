@@ -14,12 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from matcher.io import atomic_write_bytes, encode_png, write_kitti, write_middlebury
 from scenes import SceneSpec, get_preset, load_scene, scene_to_dict
 from stereoforge.errors import DatasetError
-from synth.io._atomic import atomic_write_bytes
-from synth.io.kitti import write_kitti
-from synth.io.middlebury import write_middlebury
-from synth.io.png import encode_png
 from synth.formats import FORMATS
 from synth.pair import StereoPair
 from synth.preview import preview_image

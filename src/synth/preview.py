@@ -163,7 +163,7 @@ def contact_sheet(rows: Sequence[tuple[str, object]], path: str | Path, *, dpi: 
     fig.text(0.5, 0.005, "mask: white = visible in both, grey = occluded, black = no ground truth",
              ha="center", fontsize=8)
     fig.tight_layout(rect=(0, 0.02, 1, 1))
-    from synth.io._atomic import save_figure_atomic
+    from matcher.io import save_figure_atomic
 
     try:
         return save_figure_atomic(fig, path, dpi=dpi)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from matcher import match
 from matcher.adaptive import match_awct, match_awsct, select_windows
-from matcher.match import match
 
 
 def _line_map(n_decreases, max_window=11):
@@ -153,15 +153,15 @@ def _kernel_run(left, right, wmap_l, wmap_r, max_window, d, left_only):
     """adaptive_wta_kernel with given window maps; (disparity, totals)."""
     import numba
 
-    from matcher import _adaptive_kernels
+    from matcher._kernels import adaptive_wta_kernel
     from matcher.adaptive import _code_tables
-    from matcher.census import _padded
+    from matcher.census import padded_grey
 
     bits_of, offsets = _code_tables(3, max_window, "dense")
     out = np.empty(left.shape, np.float32)
     totals = np.empty((left.shape[0], 4), np.int64)
-    _adaptive_kernels.adaptive_wta_kernel(
-        _padded(left, max_window), _padded(right, max_window), offsets, max_window // 2,
+    adaptive_wta_kernel(
+        padded_grey(left, max_window), padded_grey(right, max_window), offsets, max_window // 2,
         wmap_l.copy(), wmap_r.copy(), bits_of, d, left_only, np.empty((0, 0), np.int32), 0,
         np.arange(3, max_window + 1, 2), 5, 0, numba.get_num_threads(), np.zeros(1, np.int64),
         out, totals,
@@ -172,14 +172,14 @@ def _kernel_run(left, right, wmap_l, wmap_r, max_window, d, left_only):
 def test_left_only_kernel_path_equals_the_masked_path():
     # "left_pixel" maps satisfy bits_r >= bits_l for every candidate, so both kernel paths
     # apply: plain costs + re-scored small-window pixels, and per-word prefix masks
-    from matcher import _adaptive_kernels
+    from matcher._kernels import right_window_map
 
     left, right = _textured_pair(4, shape=(30, 44))
     rng = np.random.default_rng(7)
     wmap = rng.choice(np.array([3, 5, 7, 9], np.uint8), size=left.shape, p=[0.1, 0.1, 0.1, 0.7])
     wmap[::3] = 9  # rows where every pixel has the largest window (the plain path)
     wmap_r = np.empty_like(wmap)
-    _adaptive_kernels.right_window_map(wmap, 6, wmap_r)
+    right_window_map(wmap, 6, wmap_r)
     fast, t_fast = _kernel_run(left, right, wmap, wmap_r, 9, 6, True)
     masked, t_masked = _kernel_run(left, right, wmap, wmap_r, 9, 6, False)
     assert np.array_equal(fast, masked) and np.array_equal(t_fast, t_masked)
@@ -205,13 +205,13 @@ def test_result_window_maps_equal_select_windows_and_the_sliding_maximum():
 
 
 def test_right_window_map_hand_example():
-    from matcher import _adaptive_kernels
+    from matcher._kernels import right_window_map
 
     row = np.array([[3, 9, 5, 5, 7, 3, 3]], np.uint8)
     out = np.empty_like(row)
-    _adaptive_kernels.right_window_map(row, 3, out)
+    right_window_map(row, 3, out)
     assert out.tolist() == [[9, 9, 7, 7, 7, 3, 3]]
-    _adaptive_kernels.right_window_map(row, 1, out)
+    right_window_map(row, 1, out)
     assert out.tolist() == row.tolist()
 
 

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from matcher._adaptive_kernels import _keys_fit, _last_argmin_keys, _last_argmin_search
+from matcher._kernels.adaptive import _keys_fit, _last_argmin_keys, _last_argmin_search
 
 
 def _reference(acc):
@@ -53,7 +53,7 @@ def _windows_reference(edges, sides, n):
 
 @given(st.integers(0, 2**32 - 1), st.sampled_from([9, 21, 217, 255]), st.integers(1, 6))
 def test_window_choice_equals_the_rule_on_int32_and_int64_counts(seed, largest, n):
-    # largest <= 215 runs on int32 products, larger sides on int64 (matcher._adaptive_kernels)
+    # largest <= 215 runs on int32 products, larger sides on int64 (matcher._kernels.adaptive)
     from matcher.adaptive import select_windows
 
     rng = np.random.default_rng(seed)

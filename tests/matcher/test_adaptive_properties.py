@@ -6,9 +6,10 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
+from matcher import match
 from matcher.adaptive import match_awct, select_windows
-from matcher.census import census_transform, hamming, n_bits
-from matcher.match import match
+from matcher.census import census_transform, hamming
+from matcher.patterns import n_bits
 
 
 @st.composite
@@ -163,21 +164,21 @@ def test_no_edges_equals_ct_bit_exactly(seed, h, w):
 
 @given(st.integers(1, 40), st.integers(1, 40), st.integers(0, 2**32 - 1))
 def test_right_window_map_is_the_sliding_maximum(w, d, seed):
-    from matcher import _adaptive_kernels
+    from matcher._kernels import right_window_map
 
     d = min(d, w)
     rng = np.random.default_rng(seed)
     wmap = rng.choice(np.arange(3, 22, 2).astype(np.uint8), size=(3, w))
     out = np.empty_like(wmap)
-    _adaptive_kernels.right_window_map(wmap, d, out)
+    right_window_map(wmap, d, out)
     brute = np.array([[row[q : q + d].max() for q in range(w)] for row in wmap])
     assert np.array_equal(out, brute)
 
 
 def test_sliding_maximum_example():
-    from matcher import _adaptive_kernels
+    from matcher._kernels import right_window_map
 
     wmap = np.array([[5, 3, 3, 11, 3, 7]], np.uint8)
     out = np.empty_like(wmap)
-    _adaptive_kernels.right_window_map(wmap, 2, out)
+    right_window_map(wmap, 2, out)
     assert out.tolist() == [[5, 3, 11, 11, 7, 7]]

@@ -1,11 +1,11 @@
-"""matcher._canny_kernels: the numba port of cv2.Canny's last stage, checked bit for bit."""
+"""matcher._kernels.canny: the numba port of cv2.Canny's last stage, checked bit for bit."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
 
-from matcher._canny_kernels import canny_on_derivatives, canny_thresholds
+from matcher._kernels import canny_on_derivatives, canny_thresholds
 
 
 def opencv_canny(dx, dy, low, high):

@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from matcher._canny_kernels import canny_on_derivatives
+from matcher._kernels import canny_on_derivatives
 
 
 def opencv_canny(dx, dy, low, high):

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from matcher.census import census_transform, hamming, n_bits, n_words, spiral_offsets
+from matcher.census import census_transform, hamming
+from matcher.patterns import n_bits, n_words, spiral_offsets
 
 
 def test_spiral_ring1_is_counter_clockwise_from_the_right():

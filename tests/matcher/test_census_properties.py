@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from matcher.census import census_transform, hamming, spiral_offsets
-from matcher.sparse import sparse_pattern
+from matcher.census import census_transform, hamming
+from matcher.patterns import sparse_pattern, spiral_offsets
 from matcher.testing import grey_images
 
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
 
+from matcher import match
 from matcher.cthw import hh_edges, match_cthw, modify_disparity
-from matcher.match import match
 
 INF = np.inf
 
@@ -147,7 +147,7 @@ def test_uint8_integer_haar_path_equals_the_float_path(shape, norm, pattern):
 
 
 def test_haar_padded_kernel_matches_haar2d():
-    from matcher._cthw_kernels import haar_padded_kernel
+    from matcher._kernels import haar_padded_kernel
     from matcher.haar import haar2d
 
     img = np.array([[4, 2, 9], [0, 2, 1], [255, 0, 7]], np.uint8)

@@ -1,11 +1,11 @@
-"""matcher._cthw_kernels: padded Haar sums, the fused path search + upsampling, vote keys."""
+"""matcher._kernels.cthw: padded Haar sums, the fused path search + upsampling, vote keys."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from matcher._cthw_kernels import haar_padded_kernel, key_shift, path_mode_up_kernel
+from matcher._kernels import haar_padded_kernel, key_shift, path_mode_up_kernel
 from matcher.cthw import hh_edges, modify_disparity
 from matcher.haar import haar2d
 

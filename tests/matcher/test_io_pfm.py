@@ -7,7 +7,7 @@ import struct
 import numpy as np
 import pytest
 
-from matcher.io import PFMError, encode_pfm, read_pfm, read_pfm_header, write_pfm
+from matcher.io import PFMError, decode_pfm, encode_pfm, read_pfm, read_pfm_header, write_pfm
 
 
 def test_grey_little_endian_exact_bytes(tmp_path):
@@ -85,6 +85,19 @@ def test_corrupt_files_raise_pfmerror_naming_the_file(tmp_path, content, message
         read_pfm(path)
     assert str(path) in str(info.value)
     assert isinstance(info.value, ValueError)
+
+
+def test_decode_pfm_reads_bytes_as_read_pfm_reads_files():
+    a = np.array([[1.0, np.inf], [-0.0, 3.5]], np.float32)
+    out = decode_pfm(encode_pfm(a, scale=1.0) + b"trailing")
+    assert out.dtype == np.float32 and out.dtype.isnative and out.flags.writeable
+    np.testing.assert_array_equal(out, a)
+    with pytest.raises(PFMError, match=r"member\.pfm: data too short .* the data holds 15"):
+        decode_pfm(b"Pf\n2 2\n-1\n" + bytes(15), where="member.pfm")
+    with pytest.raises(PFMError, match="PFM data: bad magic"):
+        decode_pfm(b"P6\n2 2\n255\n")
+    with pytest.raises(TypeError, match="data: expected the bytes of a PFM file"):
+        decode_pfm("Pf\n1 1\n-1\n")
 
 
 def test_huge_dimensions_fail_before_allocating(tmp_path):

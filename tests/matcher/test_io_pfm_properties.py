@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from matcher.io import PFMError, encode_pfm, read_pfm, read_pfm_header, write_pfm
+from matcher.io import PFMError, decode_pfm, encode_pfm, read_pfm, read_pfm_header, write_pfm
 
 _shapes = st.tuples(st.integers(1, 12), st.integers(1, 12), st.sampled_from([None, 3])).map(
     lambda t: t[:2] if t[2] is None else t
@@ -36,6 +36,7 @@ def test_round_trip_is_bit_exact(tmp_path_factory, array, scale):
     assert header.little_endian == (scale < 0)
     assert header.channels == (3 if array.ndim == 3 else 1)
     assert header.scale == np.float64(scale)
+    np.testing.assert_array_equal(_bits(decode_pfm(path.read_bytes())), _bits(array))
 
 
 @given(array=_arrays, scale=_scales, data=st.data())
@@ -44,20 +45,31 @@ def test_every_truncation_raises_pfmerror(tmp_path_factory, array, scale, data):
     cut = data.draw(st.integers(0, len(blob) - 1), label="cut")
     path = tmp_path_factory.mktemp("pfm") / "t.pfm"
     path.write_bytes(blob[:cut])
-    try:
-        read_pfm(path)
-    except PFMError:
-        pass
-    else:
-        raise AssertionError(f"a file truncated to {cut} of {len(blob)} bytes was accepted")
+    for decode in (lambda: read_pfm(path), lambda: decode_pfm(blob[:cut])):
+        try:
+            decode()
+        except PFMError:
+            pass
+        else:
+            raise AssertionError(f"a file truncated to {cut} of {len(blob)} bytes was accepted")
 
 
 def _read_or_pfmerror(path):
-    """Read ``path``; return the array or None if it raised PFMError (anything else propagates)."""
+    """Read ``path``; return the array or None if it raised PFMError (anything else propagates).
+
+    ``decode_pfm`` of the file's bytes must agree: the same array, or PFMError too.
+    """
+    try:
+        decoded = decode_pfm(path.read_bytes(), where=str(path))
+    except PFMError:
+        decoded = None
     try:
         out = read_pfm(path)
     except PFMError:
+        assert decoded is None, "decode_pfm accepted bytes that read_pfm refused"
         return None
+    assert decoded is not None, "decode_pfm refused bytes that read_pfm accepted"
+    np.testing.assert_array_equal(_bits(decoded), _bits(out))
     assert out.dtype == np.float32 and out.ndim in (2, 3)
     assert out.size * 4 <= path.stat().st_size  # never more data than the file holds
     return out

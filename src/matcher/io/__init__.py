@@ -1,32 +1,57 @@
-"""File formats and real-data readers: PFM, PNG images and disparities, calib.txt,
-Middlebury 2005/2006 and 2014, KITTI 2015. See ``docs/formats.md``."""
+"""Every stereo file format, read and write, one module per format (see ``docs/formats.md``):
+PFM (:mod:`~matcher.io.pfm`), PNG images and disparities (:mod:`~matcher.io.png`), ``calib.txt``
+(:mod:`~matcher.io.calib`), the Middlebury 2005/2006 and 2014 layouts
+(:mod:`~matcher.io.middlebury`), KITTI 2015 (:mod:`~matcher.io.kitti`), and atomic file writes
+(:mod:`~matcher.io.atomic`). The writers take arrays and plain values."""
 
+from matcher.io.atomic import atomic_write_bytes, save_figure_atomic, write_all_atomic
 from matcher.io.calib import CALIB_KEYS, format_calib, parse_calib, read_calib
-from matcher.io.datasets import (
-    StereoSample,
-    infer_middlebury_2005_divisor,
+from matcher.io.kitti import (
+    KITTI_MAX_DISPARITY,
+    encode_kitti_disparity,
     load_kitti_2015,
+    write_kitti,
+)
+from matcher.io.middlebury import (
+    REQUIRED_CALIB_KEYS,
+    infer_middlebury_2005_divisor,
     load_middlebury_2005,
     load_middlebury_2014,
+    write_middlebury,
 )
-from matcher.io.images import (
+from matcher.io.pfm import (
+    PFMError,
+    PFMHeader,
+    decode_pfm,
+    encode_pfm,
+    read_pfm,
+    read_pfm_header,
+    write_pfm,
+)
+from matcher.io.png import (
+    DEFLATE,
     KITTI_DIVISOR,
-    PNG_COMPRESSION,
     decode_disparity_png,
     encode_png,
     read_disparity,
     read_image,
 )
-from matcher.io.pfm import PFMError, PFMHeader, encode_pfm, read_pfm, read_pfm_header, write_pfm
+from matcher.io.sample import StereoSample, check_stereo_images
 
 __all__ = [
     "CALIB_KEYS",
+    "DEFLATE",
     "KITTI_DIVISOR",
-    "PNG_COMPRESSION",
+    "KITTI_MAX_DISPARITY",
     "PFMError",
     "PFMHeader",
+    "REQUIRED_CALIB_KEYS",
     "StereoSample",
+    "atomic_write_bytes",
+    "check_stereo_images",
     "decode_disparity_png",
+    "decode_pfm",
+    "encode_kitti_disparity",
     "encode_pfm",
     "encode_png",
     "format_calib",
@@ -40,5 +65,9 @@ __all__ = [
     "read_image",
     "read_pfm",
     "read_pfm_header",
+    "save_figure_atomic",
+    "write_all_atomic",
+    "write_kitti",
+    "write_middlebury",
     "write_pfm",
 ]

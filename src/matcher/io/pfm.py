@@ -30,7 +30,15 @@ import numpy as np
 
 from stereoforge.errors import FormatError
 
-__all__ = ["PFMError", "PFMHeader", "encode_pfm", "read_pfm", "read_pfm_header", "write_pfm"]
+__all__ = [
+    "PFMError",
+    "PFMHeader",
+    "decode_pfm",
+    "encode_pfm",
+    "read_pfm",
+    "read_pfm_header",
+    "write_pfm",
+]
 
 _MAX_HEADER = 256  # bytes; real headers are ~20
 _WS = b" \t\n\r\v\f"
@@ -187,6 +195,51 @@ def read_pfm(path: str | os.PathLike[str]) -> np.ndarray:
         raw = f.read(header.data_bytes)
     if len(raw) < header.data_bytes:  # the file shrank while we read it
         raise PFMError(f"{path}: data too short ({len(raw)} of {header.data_bytes} bytes)")
+    return _samples(raw, header)
+
+
+def decode_pfm(data: bytes, *, where: str = "PFM data") -> np.ndarray:
+    """Decode the bytes of a PFM file (the inverse of :func:`encode_pfm`).
+
+    Parameters
+    ----------
+    data : bytes or bytes-like
+        A whole PFM file; bytes after the samples are ignored.
+    where : str, default "PFM data"
+        Name of the source in error messages (e.g. a file or archive member).
+
+    Returns
+    -------
+    (H, W) or (H, W, 3) float32 array
+        As :func:`read_pfm` returns it.
+
+    Raises
+    ------
+    PFMError
+        If the bytes are not a valid PFM file (as for :func:`read_pfm`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> decode_pfm(encode_pfm(np.array([[1.0, np.inf]], np.float32)))
+    array([[ 1., inf]], dtype=float32)
+    """
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        raise TypeError(f"data: expected the bytes of a PFM file, got {type(data).__name__}")
+    data = bytes(data)
+    header = _parse_header(data[:_MAX_HEADER], where)
+    available = len(data) - header.data_offset
+    if available < header.data_bytes:
+        raise PFMError(
+            f"{where}: data too short for a {header.width}x{header.height}x{header.channels} "
+            f"image: header announces {header.data_bytes} bytes, the data holds "
+            f"{max(available, 0)}"
+        )
+    return _samples(data[header.data_offset : header.data_offset + header.data_bytes], header)
+
+
+def _samples(raw: bytes, header: PFMHeader) -> np.ndarray:
+    """The image from exactly ``header.data_bytes`` sample bytes: native float32, top row first."""
     dtype = np.dtype("<f4" if header.little_endian else ">f4")
     shape = (header.height, header.width) + ((3,) if header.channels == 3 else ())
     data = np.frombuffer(raw, dtype=dtype).reshape(shape)[::-1]
@@ -236,8 +289,9 @@ def write_pfm(path: str | os.PathLike[str], array: np.ndarray, *, scale: float =
     Parameters
     ----------
     path : str or path-like
-        Destination; overwritten if it exists. Not atomic: the dataset writers in
-        :mod:`synth.io` encode with :func:`encode_pfm` and write atomically.
+        Destination; overwritten if it exists. Not atomic: the dataset writers
+        (:mod:`matcher.io.middlebury`) encode with :func:`encode_pfm` and write atomically
+        (:mod:`matcher.io.atomic`).
     array : (H, W), (H, W, 1) or (H, W, 3) real array
         Converted to float32 (``Pf`` for one channel, ``PF`` for three). ``inf``/NaN are kept.
     scale : float, default -1.0

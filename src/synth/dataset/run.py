@@ -43,11 +43,11 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
 from synth.export import FORMATS, prepare_output_dir, write_pair
-from synth.io._atomic import atomic_write_bytes
 from synth.photometric import apply_photometric
 from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
 from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density

@@ -147,7 +147,7 @@ def write_table(rows: Sequence, out: Path, name: str) -> str:
     """
     import dataclasses
 
-    from synth.io._atomic import atomic_write_bytes
+    from matcher.io import atomic_write_bytes
 
     rows = [dataclasses.asdict(r) if dataclasses.is_dataclass(r) else dict(r) for r in rows]
     out.mkdir(parents=True, exist_ok=True)

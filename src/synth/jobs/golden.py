@@ -46,9 +46,8 @@ from typing import Any
 import numpy as np
 
 from matcher import match
-from matcher.io import encode_pfm, load_middlebury_2014, read_pfm
+from matcher.io import atomic_write_bytes, decode_pfm, encode_pfm, load_middlebury_2014, read_pfm
 from matcher.metrics import evaluate
-from synth.io._atomic import atomic_write_bytes
 from synth.rig import StereoRig
 
 __all__ = [
@@ -470,11 +469,7 @@ def _describe(path: str, new: bytes, old: bytes) -> str:
     import cv2
 
     if path.endswith(".pfm"):
-        with tempfile.TemporaryDirectory() as tmp:
-            a, b = Path(tmp, "a.pfm"), Path(tmp, "b.pfm")
-            a.write_bytes(new)
-            b.write_bytes(old)
-            x, y = read_pfm(a), read_pfm(b)
+        x, y = decode_pfm(new, where=f"new {path}"), decode_pfm(old, where=f"stored {path}")
         if x.shape != y.shape:
             return f"shape {y.shape} -> {x.shape}"
         max_abs, n_bad, n_fin = _disp_stats(x, y)

@@ -24,10 +24,9 @@ from matplotlib.figure import Figure
 from matcher.adaptive import match_awct
 from matcher.cthw import HH_THRESHOLD, match_cthw
 from matcher.edges import canny_edges
-from matcher.io.datasets import load_middlebury_2005
+from matcher.io import atomic_write_bytes, load_middlebury_2005, save_figure_atomic
 from matcher.match import match
 from matcher.metrics import evaluate
-from synth.io._atomic import atomic_write_bytes, save_figure_atomic
 
 __all__ = ["PAPER_SCENES", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SIZES", "run_paper"]
 

@@ -41,8 +41,8 @@ import zlib
 from pathlib import Path
 from typing import Any
 
+from matcher.io import atomic_write_bytes
 from synth.dataset.engine import run_tasks
-from synth.io._atomic import atomic_write_bytes
 from synth.jobs.study_config import (
     StudyConfig,
     StudyConfigError,
@@ -123,7 +123,7 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
         row["census_per_pixel"] = None if c is None else c / pixels
         ref = ct_ops.get(row["window"])
         if ref is None and c is not None:  # CT not in the study: its count is closed-form
-            from matcher.census import n_bits
+            from matcher import n_bits
             ref = 2 * pixels * n_bits(row["window"])
         row["ops_vs_ct"] = None if c is None else c / ref
     return {"kind": kind, "texture_axis": cfg.axis, "texture_level": level,

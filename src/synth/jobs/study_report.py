@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io._atomic import save_figure_atomic
+from matcher.io import save_figure_atomic
 from synth.jobs.study_config import StudyConfig
 
 __all__ = ["summarize", "write_plots"]

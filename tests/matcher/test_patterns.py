@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from matcher.census import census_transform, n_bits, spiral_offsets
-from matcher.sparse import sparse_pattern
+from matcher.census import census_transform
+from matcher.patterns import n_bits, sparse_pattern, spiral_offsets
 
 WINDOWS = list(range(3, 23, 2))
 

@@ -10,9 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from matcher.io import load_kitti_2015, load_middlebury_2014
-from synth.io.kitti import write_kitti
-from synth.io.middlebury import write_middlebury
+from matcher.io import load_kitti_2015, load_middlebury_2014, write_kitti, write_middlebury
 
 K = np.array([[100.0, 0, 7.5], [0, 100.0, 7.5], [0, 0, 1]])
 
@@ -80,7 +78,7 @@ def test_kitti_round_trip(tmp_path_factory, frame, index):
 def test_png_round_trips_through_opencv(image, deflate):
     import cv2
 
-    from synth.io.png import encode_png
+    from matcher.io import encode_png
 
     back = cv2.imdecode(np.frombuffer(encode_png(image, deflate=deflate), np.uint8),
                         cv2.IMREAD_UNCHANGED)

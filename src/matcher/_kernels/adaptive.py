@@ -1,8 +1,9 @@
-"""Numba kernels of AWCT/AWSCT (and CTHW's Haar sums; the rest of CTHW is in
-:mod:`matcher._cthw_kernels`). They trust their input: validate at the public boundary.
+"""Numba kernels of AWCT/AWSCT (:mod:`matcher.adaptive`). They trust their input: validate at
+the public boundary.
 
-Census codes use the word-planar layout ``(H, n_words, W)`` uint64 of :mod:`matcher._kernels`
-(contiguous inner loops over ``x``).
+Census codes use the word-planar layout ``(H, n_words, W)`` uint64 of
+:mod:`matcher._kernels.census` (contiguous inner loops over ``x``), whose row helpers these
+kernels share.
 """
 
 from __future__ import annotations
@@ -10,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from matcher._kernels import _census_row, _row_cost, _select_row, fetch_add, popcount64
+from matcher._kernels.census import _census_row, _row_cost, _select_row
+from matcher._kernels.intrinsics import fetch_add, popcount64
 
 __all__ = [
     "adaptive_wta_kernel",
@@ -290,7 +292,7 @@ def _adaptive_row(
     ``ML``, ``MR`` (contiguous, branch-free, vectorised). Codes are zero beyond
     ``total_bits``, so words below the row's smallest code length need no mask at all, and a
     row in which every pixel uses the largest window costs exactly plain census
-    (:func:`matcher._kernels._row_cost`). With ``left_only`` (the caller guarantees
+    (:func:`matcher._kernels.census._row_cost`). With ``left_only`` (the caller guarantees
     ``bits_r[x - d] >= bits_l[x]`` for every candidate, as ``right_windows="left_pixel"``
     does) the row gets plain costs and WTA, and only the left pixels with a smaller window
     (few, since edges are sparse) are scored again over their own prefix.
@@ -370,7 +372,8 @@ def adaptive_wta_kernel(
     """Census codes + Hamming cost over the smaller window's prefix + winner-takes-all, fused.
 
     pl, pr : (H + 2r, W + 2r) edge-padded images; offsets : (n, 2) int64 census offsets of the
-    largest window (each row's codes are computed here, as :func:`matcher._kernels._census_row`).
+    largest window (each row's codes are computed here, as
+    :func:`matcher._kernels.census._census_row`).
     wmap_l, wmap_r : (H, W) uint8 window sides; bits_of : (max side + 1,) int64, the code
     length (a prefix, ``<= n``) of each side, so ``bits_l = bits_of[wmap_l]`` and likewise
     ``bits_r``. The cost of ``(y, x, d)`` is the number of differing bits among the first

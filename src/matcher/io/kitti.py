@@ -1,6 +1,6 @@
-"""Write a stereo pair in the KITTI 2015 layout (read back by :func:`matcher.io.load_kitti_2015`).
+"""The KITTI 2015 stereo layout: read a training frame, write one.
 
-Files written under ``out_root`` for frame ``index`` (``NNNNNN`` = six-digit index)::
+Files of frame ``index`` under a dataset root (``NNNNNN`` = six-digit index)::
 
     image_2/NNNNNN_10.png      left image
     image_3/NNNNNN_10.png      right image
@@ -20,14 +20,60 @@ from pathlib import Path
 import numpy as np
 
 from matcher._validation import check_ground_truth, check_occlusion_mask
-from synth.io._atomic import write_all_atomic
-from synth.io.middlebury import check_stereo_images
-from synth.io.png import encode_png
+from matcher.io.atomic import write_all_atomic
+from matcher.io.png import KITTI_DIVISOR, encode_png, read_disparity, read_image
+from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
-__all__ = ["KITTI_MAX_DISPARITY", "encode_kitti_disparity", "write_kitti"]
+__all__ = ["KITTI_MAX_DISPARITY", "encode_kitti_disparity", "load_kitti_2015", "write_kitti"]
 
 #: Largest disparity a KITTI PNG can store.
 KITTI_MAX_DISPARITY = 65535 / 256
+
+
+def load_kitti_2015(root: str | os.PathLike[str], index: int, *, occ: bool = True) -> StereoSample:
+    """Load frame ``index`` of a KITTI 2015 (or 2012-style) training folder.
+
+    Reads ``image_2/NNNNNN_10.png`` (left), ``image_3/NNNNNN_10.png`` (right) and the disparity
+    ``disp_occ_0/NNNNNN_10.png`` (``occ=True``: all pixels with ground truth) or
+    ``disp_noc_0/NNNNNN_10.png`` (``occ=False``: non-occluded only), uint16 ``d * 256`` with
+    0 = invalid.
+
+    Returns
+    -------
+    StereoSample
+        ``disp_left`` float32 pixels, ``inf`` where invalid; ``disp_right`` None. When both
+        ``disp_occ_0`` and ``disp_noc_0`` exist, ``mask_left`` is derived from them: 255 where
+        the noc map is valid, 128 where only the occ map is, 0 elsewhere.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, cv2, numpy as np
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     for sub in ("image_2", "image_3", "disp_occ_0"):
+    ...         pathlib.Path(d, sub).mkdir()
+    ...     for sub in ("image_2", "image_3"):
+    ...         _ = cv2.imwrite(f"{d}/{sub}/000007_10.png", np.zeros((1, 2, 3), np.uint8))
+    ...     _ = cv2.imwrite(f"{d}/disp_occ_0/000007_10.png", np.array([[0, 640]], np.uint16))
+    ...     load_kitti_2015(d, 7).disp_left.tolist()
+    [[inf, 2.5]]
+    """
+    root = Path(root)
+    require_dir(root, "root")
+    if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)) or not 0 <= index <= 999999:
+        raise ValueError(f"index: expected an integer in [0, 999999], got {index!r}")
+    name = f"{int(index):06d}_10.png"
+    left = read_image(root / "image_2" / name)
+    right = read_image(root / "image_3" / name)
+    occ_path, noc_path = root / "disp_occ_0" / name, root / "disp_noc_0" / name
+    disp_left = read_disparity(occ_path if occ else noc_path, divisor=KITTI_DIVISOR)
+    mask = None
+    if occ_path.is_file() and noc_path.is_file():
+        other = read_disparity(noc_path if occ else occ_path, divisor=KITTI_DIVISOR)
+        d_occ, d_noc = (disp_left, other) if occ else (other, disp_left)
+        mask = np.where(np.isfinite(d_noc), 255, np.where(np.isfinite(d_occ), 128, 0)).astype(np.uint8)
+    check_sample_shapes(root, left, right, disp_left, mask)
+    meta = {"dataset": "kitti2015", "occ": occ, "root": str(root), "index": int(index)}
+    return StereoSample(left, right, disp_left, None, f"{int(index):06d}", meta, mask)
 
 
 def encode_kitti_disparity(disparity: np.ndarray, *, name: str = "disparity") -> np.ndarray:

@@ -1,18 +1,8 @@
-"""Sparse census transform (SCT) patterns: point-symmetric subsets of the dense spiral.
+"""A figure of the census patterns: the dense spiral bit order and the sparse patterns
+(:mod:`matcher.patterns`).
 
-The seed paper (§3.3, Fig. 6) uses the 16-point, 7 x 7, symmetric pattern of Fife & Archibald
-(2013) and "expands" it to windows 3 x 3 ... 21 x 21. The figure is not available to us, so the
-pattern is a reconstruction (see ``docs/matcher.md``):
-
-* 7 x 7: the 16 pixels with both ``dy`` and ``dx`` odd, ``{-3, -1, 1, 3}^2`` -- every second
-  pixel of every second row around the centre, the classic 16-comparison sparse census;
-* extension: the same lattice, ``S(w) = {(dy, dx): dy, dx odd, |dy|, |dx| <= w // 2}``.
-
-Every pattern is point-symmetric (``p in S => -p in S``), a subset of the dense window, listed in
-the dense spiral order (:func:`matcher.census.spiral_offsets`), and -- because it is the same
-lattice cut by growing squares -- ``S(w)`` is a prefix of ``S(w + 2)``, as the adaptive sparse
-method (AWSCT) needs. Rings of even radius hold no lattice point, so a window of side
-``4k + 1`` has the same pattern as the one of side ``4k - 1`` (5 x 5 = 3 x 3, 9 x 9 = 7 x 7, ...).
+Needs matplotlib, imported inside :func:`draw_patterns` only, so importing this module (or
+:mod:`matcher`) does not.
 """
 
 from __future__ import annotations
@@ -21,40 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.census import _check_side, spiral_offsets
+from matcher.patterns import sparse_pattern, spiral_offsets
 
-__all__ = ["draw_patterns", "sparse_pattern"]
-
-
-def sparse_pattern(window: int) -> np.ndarray:
-    """Offsets of the sparse census pattern of a window, in spiral bit order.
-
-    Parameters
-    ----------
-    window : int
-        Odd window side, ``3 <= window <= 255``.
-
-    Returns
-    -------
-    (n, 2) int64 array
-        ``(dy, dx)`` offsets with ``dy`` and ``dx`` odd; ``n = ((window + 1) // 4 * 2) ** 2``
-        (4 for 3 x 3 and 5 x 5, 16 for 7 x 7 and 9 x 9, ..., 100 for 21 x 21).
-
-    References
-    ----------
-    W. S. Fife and J. K. Archibald, "Improved Census Transforms for Resource-Optimized Stereo
-    Vision", IEEE TCSVT 23(1):60-73, 2013. Liaw et al., Sensors 20(9):2537, 2020, Fig. 6.
-
-    Examples
-    --------
-    >>> sparse_pattern(3).tolist()
-    [[-1, 1], [-1, -1], [1, -1], [1, 1]]
-    >>> len(sparse_pattern(7))
-    16
-    """
-    dense = spiral_offsets(_check_side(window))
-    odd = (dense[:, 0] % 2 == 1) & (dense[:, 1] % 2 == 1)
-    return dense[odd]
+__all__ = ["draw_patterns"]
 
 
 def _draw_grid(ax, window: int, offsets: np.ndarray, title: str) -> None:

@@ -1,6 +1,6 @@
-"""Hand-picked examples for the fast PNG encoder of the dataset writers (``synth.io.png``).
+"""Hand-picked examples for the fast PNG encoder of the dataset writers (``matcher.io.png``).
 
-Property companion: ``test_png_round_trips_through_opencv`` in ``test_writers_properties.py``.
+Property companion: ``test_png_round_trips_through_opencv`` in ``test_io_writers_properties.py``.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from synth.io import png
-from synth.io.png import DEFLATE, encode_png
+from matcher.io import png
+from matcher.io.png import DEFLATE, encode_png
 
 DEFLATES = ["zlib", "isal"]
 

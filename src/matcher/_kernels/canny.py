@@ -26,7 +26,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from matcher._kernels import fetch_add
+from matcher._kernels.intrinsics import fetch_add
 
 __all__ = ["canny_from_derivatives", "canny_on_derivatives", "canny_thresholds"]
 

@@ -1,19 +1,23 @@
-"""Hand-picked examples for the Middlebury and KITTI writers and the atomic-write helper."""
+"""Hand-picked examples for the Middlebury and KITTI writers (``matcher.io.middlebury``,
+``matcher.io.kitti``); atomic writes are in ``test_io_atomic.py``."""
 
 from __future__ import annotations
 
-import os
 import struct
 
 import cv2
 import numpy as np
 import pytest
 
-from matcher.io import load_kitti_2015, load_middlebury_2014, read_calib
-from synth.io import _atomic
-from synth.io._atomic import atomic_write_bytes
-from synth.io.kitti import KITTI_MAX_DISPARITY, encode_kitti_disparity, write_kitti
-from synth.io.middlebury import write_middlebury
+from matcher.io import (
+    KITTI_MAX_DISPARITY,
+    encode_kitti_disparity,
+    load_kitti_2015,
+    load_middlebury_2014,
+    read_calib,
+    write_kitti,
+    write_middlebury,
+)
 
 K = np.array([[500.0, 0, 1.5], [0, 500.0, 0.5], [0, 0, 1]])
 CALIB = {"cam0": K, "cam1": K, "doffs": 0.0, "baseline": 120.0, "ndisp": 16}
@@ -145,38 +149,3 @@ def test_write_kitti_bad_index(tmp_path):
     for index in (-1, 10**6, 1.0, True):
         with pytest.raises(ValueError, match="index"):
             write_kitti(tmp_path, index, left=left, right=right, disp_left=disp, mask_left=mask)
-
-
-# --- atomic writes ----------------------------------------------------------------------------
-
-
-def test_atomic_write_replaces_existing_file(tmp_path):
-    target = tmp_path / "f.bin"
-    target.write_bytes(b"old")
-    atomic_write_bytes(target, b"new", fsync=False)
-    assert target.read_bytes() == b"new" and _files(tmp_path) == ["f.bin"]
-
-
-def test_atomic_write_failure_keeps_old_content_and_removes_temp(tmp_path, monkeypatch):
-    target = tmp_path / "f.bin"
-    target.write_bytes(b"old")
-
-    def boom(src, dst):
-        raise OSError("disk full")
-
-    monkeypatch.setattr(_atomic.os, "replace", boom)
-    with pytest.raises(OSError, match="disk full"):
-        atomic_write_bytes(target, b"new")
-    assert target.read_bytes() == b"old" and _files(tmp_path) == ["f.bin"]
-
-
-def test_atomic_write_fsyncs_before_rename(tmp_path, monkeypatch):
-    calls = []
-    real_fsync, real_replace = os.fsync, os.replace
-    monkeypatch.setattr(_atomic.os, "fsync", lambda fd: (calls.append("fsync"), real_fsync(fd)))
-    monkeypatch.setattr(_atomic.os, "replace", lambda a, b: (calls.append("replace"), real_replace(a, b)))
-    atomic_write_bytes(tmp_path / "g", b"x")
-    assert calls == ["fsync", "replace"]
-    calls.clear()
-    atomic_write_bytes(tmp_path / "g", b"y", fsync=False)
-    assert calls == ["replace"]

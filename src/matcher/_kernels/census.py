@@ -1,4 +1,5 @@
-"""Numba kernels of the census matcher. They trust their input: validate at the public boundary.
+"""Numba kernels of the census matcher (CT/SCT and cost volumes). They trust their input:
+validate at the public boundary.
 
 Layouts used here (chosen for contiguous, vectorisable inner loops over ``x``):
 
@@ -10,57 +11,27 @@ Inner loops index from 0 on sliced views, so every index is provably non-negativ
 negative-index wraparound check does not block vectorisation.
 
 Scheduling: the parallel kernels that do most of the work run ``prange`` over the worker threads
-and let each worker take rows (or strips) from a shared atomic counter (:func:`fetch_add`).
+and let each worker take rows (or strips) from a shared atomic counter
+(:func:`matcher._kernels.intrinsics.fetch_add`).
 numba's OpenMP layer splits a ``prange`` statically, so a worker that another process keeps off
 its core would otherwise hold up half of the rows; with the counter the other worker takes them.
+
+The other kernel modules of this package share the row helpers (``_census_row``, ``_row_cost``,
+``_select_row``).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange, types
-from numba.core import cgutils
-from numba.extending import intrinsic
+from numba import njit, prange
 
-__all__ = [
-    "COST_SENTINEL",
-    "census_match_kernel",
-    "census_rows_kernel",
-    "cost_volume_kernel",
-    "fetch_add",
-    "popcount64",
-]
+from matcher._kernels.intrinsics import fetch_add, popcount64
+
+__all__ = ["COST_SENTINEL", "census_match_kernel", "census_rows_kernel", "cost_volume_kernel"]
 
 #: Cost stored in a uint16 cost volume where ``x - d < 0`` (not a candidate).
 COST_SENTINEL = np.uint16(0xFFFF)
 _BIG = np.uint32(0xFFFFFFFF)
-
-
-@intrinsic
-def popcount64(typingctx, x):  # pragma: no cover - compiled
-    """LLVM ``ctpop`` on a uint64 (a ``popcnt`` instruction, or a vector popcount)."""
-    sig = types.uint64(types.uint64)
-
-    def codegen(context, builder, signature, args):
-        return builder.ctpop(args[0])
-
-    return sig, codegen
-
-
-@intrinsic
-def fetch_add(typingctx, counter, increment):  # pragma: no cover - compiled
-    """Atomically add ``increment`` to ``counter[0]`` (a 1-D int64 array); return the old value."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
-        return None
-    sig = types.int64(counter, types.int64)
-
-    def codegen(context, builder, signature, args):
-        ary = context.make_array(signature.args[0])(context, builder, args[0])
-        ptr = cgutils.get_item_pointer(context, builder, signature.args[0], ary,
-                                       [context.get_constant(types.intp, 0)])
-        return builder.atomic_rmw("add", ptr, args[1], "monotonic")
-
-    return sig, codegen
 
 
 @njit(cache=True)

@@ -1,0 +1,253 @@
+"""The Middlebury stereo layouts: read 2005/2006 and 2014 scenes, write 2014 scenes.
+
+Middlebury 2005/2006 (read): ``view1.png``, ``view5.png`` (left, right), ``disp1.png``,
+``disp5.png`` (8-bit disparity codes, ``code / divisor`` pixels, 0 = unknown).
+
+Middlebury 2014 (read and write; see ``docs/formats.md``)::
+
+    im0.png, im1.png     left and right images (8-bit, RGB or grey)
+    disp0.pfm, disp1.pfm left and right ground-truth disparity, float32, inf = no ground truth
+    mask0nocc.png        occlusion mask of the left view: 255 visible, 128 occluded, 0 no GT
+    calib.txt            cam0, cam1, doffs, baseline (mm), width, height, ndisp, vmin, vmax
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from matcher._validation import check_ground_truth, check_occlusion_mask, check_positive
+from matcher.io.atomic import write_all_atomic
+from matcher.io.calib import format_calib, read_calib
+from matcher.io.pfm import encode_pfm
+from matcher.io.png import encode_png, read_disparity, read_image
+from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
+
+__all__ = [
+    "REQUIRED_CALIB_KEYS",
+    "infer_middlebury_2005_divisor",
+    "load_middlebury_2005",
+    "load_middlebury_2014",
+    "write_middlebury",
+]
+
+#: Keys ``calib`` must provide; ``width``, ``height``, ``vmin``, ``vmax`` are filled in if absent.
+REQUIRED_CALIB_KEYS: tuple[str, ...] = ("cam0", "cam1", "doffs", "baseline", "ndisp")
+
+_SIZE_DIVISORS = (("third", 3.0), ("half", 2.0), ("full", 1.0))
+
+
+def infer_middlebury_2005_divisor(scene_dir: str | os.PathLike[str]) -> float:
+    """Infer the disparity divisor of a Middlebury 2005/2006 scene from its folder names.
+
+    The nearest enclosing folder whose name contains ``third``, ``half`` or ``full``
+    (case-insensitive, e.g. ``third/``, ``ThirdSize/``, ``HalfSize/``) gives 3, 2 or 1.
+
+    Raises
+    ------
+    ValueError
+        If no folder name says; pass ``divisor`` explicitly then.
+
+    Examples
+    --------
+    >>> infer_middlebury_2005_divisor("data/middlebury/third/Moebius")
+    3.0
+    """
+    path = Path(scene_dir)
+    for part in reversed(path.resolve().parts if path.exists() else path.parts):
+        lower = part.lower()
+        for word, divisor in _SIZE_DIVISORS:
+            if word in lower:
+                return divisor
+    raise ValueError(
+        f"divisor: cannot infer the size variant of {path} (no folder named third/half/full); "
+        "pass divisor=3 (third size), 2 (half) or 1 (full)"
+    )
+
+
+def load_middlebury_2005(scene_dir: str | os.PathLike[str], *, divisor: float | None = None) -> StereoSample:
+    """Load a Middlebury 2005/2006 scene (``view1.png``, ``view5.png``, ``disp1.png``, ``disp5.png``).
+
+    Parameters
+    ----------
+    scene_dir : str or path-like
+        Folder of one scene, e.g. ``.../middlebury/third/Moebius``.
+    divisor : float, optional
+        PNG codes per pixel: 3 for the third size, 2 for half, 1 for full. When None it is
+        inferred from the folder names (:func:`infer_middlebury_2005_divisor`).
+
+    Returns
+    -------
+    StereoSample
+        ``disp_left``/``disp_right`` are ``code / divisor``, ``inf`` where the code is 0
+        (unknown); ``disp_right`` is None when ``disp5.png`` is absent. ``meta`` holds
+        ``dataset="middlebury2005"``, ``divisor`` and ``scene_dir``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, cv2, numpy as np
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     s = pathlib.Path(d, "third", "Toy"); s.mkdir(parents=True)
+    ...     for n in ("view1", "view5"): _ = cv2.imwrite(str(s / f"{n}.png"), np.zeros((2, 3, 3), np.uint8))
+    ...     _ = cv2.imwrite(str(s / "disp1.png"), np.array([[0, 3, 6], [9, 3, 0]], np.uint8))
+    ...     load_middlebury_2005(s).disp_left[0].tolist()
+    [inf, 1.0, 2.0]
+    """
+    scene_dir = Path(scene_dir)
+    require_dir(scene_dir, "scene_dir")
+    divisor = infer_middlebury_2005_divisor(scene_dir) if divisor is None else check_positive(divisor, "divisor")
+    left = read_image(scene_dir / "view1.png")
+    right = read_image(scene_dir / "view5.png")
+    disp_left = read_disparity(scene_dir / "disp1.png", divisor=divisor)
+    disp5 = scene_dir / "disp5.png"
+    disp_right = read_disparity(disp5, divisor=divisor) if disp5.is_file() else None
+    check_sample_shapes(scene_dir, left, right, disp_left, disp_right)
+    meta = {"dataset": "middlebury2005", "divisor": divisor, "scene_dir": str(scene_dir)}
+    return StereoSample(left, right, disp_left, disp_right, scene_dir.name, meta)
+
+
+def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
+    """Load a Middlebury 2014 scene (the layout :func:`write_middlebury` writes).
+
+    Reads ``im0.png``, ``im1.png``, ``disp0.pfm``, ``calib.txt`` and, when present,
+    ``disp1.pfm`` and ``mask0nocc.png``.
+
+    Returns
+    -------
+    StereoSample
+        Disparities as stored (``inf`` where there is no ground truth); ``meta["calib"]`` is the
+        parsed ``calib.txt`` (:func:`matcher.io.read_calib`); ``mask_left`` the occlusion mask
+        or None.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, cv2, numpy as np
+    >>> from matcher.io import format_calib, write_pfm
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     s = pathlib.Path(d)
+    ...     for n in ("im0", "im1"): _ = cv2.imwrite(str(s / f"{n}.png"), np.zeros((2, 3, 3), np.uint8))
+    ...     _ = write_pfm(s / "disp0.pfm", np.array([[1, 2, np.inf], [1, 2, 3]]))
+    ...     _ = (s / "calib.txt").write_text(format_calib({"cam0": np.eye(3), "ndisp": 8}))
+    ...     load_middlebury_2014(s).meta["calib"]["ndisp"]
+    8
+    """
+    scene_dir = Path(scene_dir)
+    require_dir(scene_dir, "scene_dir")
+    left = read_image(scene_dir / "im0.png")
+    right = read_image(scene_dir / "im1.png")
+    disp_left = read_disparity(scene_dir / "disp0.pfm")
+    disp1 = scene_dir / "disp1.pfm"
+    disp_right = read_disparity(disp1) if disp1.is_file() else None
+    mask_path = scene_dir / "mask0nocc.png"
+    mask = read_image(mask_path) if mask_path.is_file() else None
+    if mask is not None and mask.ndim != 2:
+        raise ValueError(f"{mask_path}: expected a grey mask, got shape {mask.shape}")
+    check_sample_shapes(scene_dir, left, right, disp_left, disp_right, mask)
+    calib = read_calib(scene_dir / "calib.txt")
+    meta = {"dataset": "middlebury2014", "calib": calib, "scene_dir": str(scene_dir)}
+    return StereoSample(left, right, disp_left, disp_right, scene_dir.name, meta, mask)
+
+
+def _complete_calib(calib: Mapping[str, object], shape: tuple[int, int], disp: np.ndarray) -> dict:
+    if not isinstance(calib, Mapping):
+        raise TypeError(f"calib: expected a dict, got {type(calib).__name__}")
+    missing = [k for k in REQUIRED_CALIB_KEYS if k not in calib]
+    if missing:
+        raise ValueError(f"calib: missing keys {missing}; required: {list(REQUIRED_CALIB_KEYS)}")
+    out = dict(calib)
+    h, w = shape
+    for key, value in (("width", w), ("height", h)):
+        if key in out and int(out[key]) != value:  # type: ignore[call-overload]
+            raise ValueError(f"calib[{key!r}]: expected {value} (the image size), got {out[key]}")
+        out[key] = value
+    if "vmin" not in out or "vmax" not in out:
+        finite = disp[np.isfinite(disp)]
+        if "vmin" not in out:
+            out["vmin"] = math.floor(float(finite.min())) if finite.size else 0
+        if "vmax" not in out:
+            out["vmax"] = math.ceil(float(finite.max())) if finite.size else 0
+    return out
+
+
+def write_middlebury(
+    out_dir: str | os.PathLike[str],
+    *,
+    left: np.ndarray,
+    right: np.ndarray,
+    disp_left: np.ndarray,
+    disp_right: np.ndarray | None,
+    mask_left: np.ndarray,
+    calib: Mapping[str, object],
+    fsync: bool = True,
+) -> list[Path]:
+    """Write one stereo pair as a Middlebury 2014 scene folder.
+
+    Everything is validated and encoded before the first byte is written, and every file is
+    written atomically, so an error leaves ``out_dir`` as it was.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Scene folder; created (with parents) if missing; existing files are replaced.
+    left, right : (H, W, 3) or (H, W) uint8 array
+        Images, RGB order.
+    disp_left : (H, W) float array
+        Left ground truth in pixels, ``>= 0``; ``inf`` (or NaN, written as ``inf``) exactly where
+        ``mask_left == 0``.
+    disp_right : (H, W) float array or None
+        Right ground truth (``inf`` = none); ``disp1.pfm`` is skipped when None.
+    mask_left : (H, W) uint8 array
+        Codes 255 (visible in both views), 128 (occluded in the right view), 0 (no ground truth).
+    calib : dict
+        ``cam0``, ``cam1`` (3x3), ``doffs``, ``baseline`` (mm), ``ndisp``, plus any other keys
+        (``isint``, ...). ``width``/``height`` are filled from the images (and must match if
+        given); ``vmin``/``vmax`` default to the floor/ceil of the finite ``disp_left`` range.
+    fsync : bool, default True
+        ``fsync`` each file before renaming it into place.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written, in the order ``im0.png, im1.png, disp0.pfm, [disp1.pfm,]
+        mask0nocc.png, calib.txt``.
+
+    Examples
+    --------
+    >>> import tempfile, numpy as np
+    >>> from matcher.io import load_middlebury_2014
+    >>> img = np.zeros((2, 3, 3), np.uint8)
+    >>> d = np.array([[1.0, 2.0, np.inf], [1.0, 2.0, 2.5]], np.float32)
+    >>> mask = np.where(np.isfinite(d), 255, 0).astype(np.uint8)
+    >>> cal = {"cam0": np.eye(3), "cam1": np.eye(3), "doffs": 0, "baseline": 100, "ndisp": 8}
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     files = write_middlebury(out, left=img, right=img, disp_left=d, disp_right=None,
+    ...                              mask_left=mask, calib=cal)
+    ...     s = load_middlebury_2014(out)
+    >>> [f.name for f in files]
+    ['im0.png', 'im1.png', 'disp0.pfm', 'mask0nocc.png', 'calib.txt']
+    >>> s.disp_left[0].tolist(), s.meta["calib"]["vmax"]
+    ([1.0, 2.0, inf], 3)
+    """
+    left, right = check_stereo_images(left, right)
+    shape = left.shape[:2]
+    mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)
+    disp0 = check_ground_truth(disp_left, "disp_left", shape=shape, mask=mask_left)
+    disp1 = None if disp_right is None else check_ground_truth(disp_right, "disp_right", shape=shape)
+    full_calib = _complete_calib(calib, shape, disp0)
+
+    out = Path(out_dir)
+    files: dict[Path, bytes] = {
+        out / "im0.png": encode_png(left),
+        out / "im1.png": encode_png(right),
+        out / "disp0.pfm": encode_pfm(disp0),
+    }
+    if disp1 is not None:
+        files[out / "disp1.pfm"] = encode_pfm(disp1)
+    files[out / "mask0nocc.png"] = encode_png(mask_left)
+    files[out / "calib.txt"] = format_calib(full_calib).encode("ascii")
+    out.mkdir(parents=True, exist_ok=True)
+    return write_all_atomic(files, fsync=fsync)

@@ -1,3 +1,0 @@
-"""Dataset writers and readers."""
-
-__all__: list[str] = []
