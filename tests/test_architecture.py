@@ -1,63 +1,99 @@
-"""The dependency contract between packages (STYLE.md: scenes <- synth -> matcher)."""
+"""The dependency rules of docs/architecture.md: import-linter contracts, and what they can't see.
+
+The contracts live in pyproject.toml (``[tool.importlinter]``); ``private_names`` is our own
+contract type (tools/import_contracts.py). Each contract is one test, so a broken rule names
+itself. The runtime checks below cover what a static graph does not: what importing a package
+actually loads.
+"""
 
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[1] / "src"
-GL_MODULES = ("pyrender", "OpenGL")
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
+CONTRACTS = [c["name"] for c in
+             tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]]
+
+sys.path.insert(0, str(ROOT / "tools"))
+from import_contracts import private_name_imports  # noqa: E402
+
+sys.path.remove(str(ROOT / "tools"))
 
 
-def _imports(path: Path) -> set[str]:
-    tree = ast.parse(path.read_text(), filename=str(path))
-    names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names.update(alias.name.split(".")[0] for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module.split(".")[0])
-    return names
+@pytest.fixture(scope="module")
+def lint_report() -> str:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "tools"), str(SRC)])}
+    code = "import sys; from importlinter.cli import lint_imports_command; sys.exit(lint_imports_command())"
+    out = subprocess.run([sys.executable, "-c", code, "--no-cache"], capture_output=True, text=True,
+                         cwd=ROOT, env=env)
+    assert "Contracts:" in out.stdout, out.stdout + out.stderr
+    return out.stdout
+
+
+@pytest.mark.parametrize("contract", CONTRACTS)
+def test_import_contract_is_kept(lint_report, contract):
+    lines = [line for line in lint_report.splitlines() if line.startswith(contract + " ")]
+    assert lines, f"contract {contract!r} was not checked:\n{lint_report}"
+    assert lines[0].endswith("KEPT"), lint_report[lint_report.rfind(contract):]
+
+
+def test_private_names_contract_finds_a_planted_import(tmp_path):
+    (tmp_path / "b.py").write_text(
+        "from pkg.a import _helper, public\n"
+        "from pkg import _sub\n"            # a private module: the private_modules contract's
+        "from . import _other\n"
+        "from pkg.a import __version__\n"   # dunder: not private
+    )
+    found = private_name_imports("pkg.b", tmp_path / "b.py", is_package=False,
+                                 modules={"pkg", "pkg.a", "pkg.b", "pkg._sub"})
+    assert found == [(1, "pkg.a", "_helper"), (3, "pkg", "_other")]
+
+
+def test_private_names_contract_exempts_kernels_packages_only_among_themselves(tmp_path):
+    (tmp_path / "k.py").write_text("from matcher._kernels.census import _row\n")
+    inside = private_name_imports("matcher._kernels.adaptive", tmp_path / "k.py", is_package=False,
+                                  modules=set())
+    outside = private_name_imports("matcher.adaptive", tmp_path / "k.py", is_package=False,
+                                   modules=set())
+    assert inside == [] and outside == [(1, "matcher._kernels.census", "_row")]
+
+
+def _loaded_after(statement: str, prefixes: tuple[str, ...]) -> list[str]:
+    code = (f"import sys; {statement}\n"
+            f"print(','.join(sorted({{m.split('.')[0] for m in sys.modules}} & {set(prefixes)!r})))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return [m for m in out.stdout.strip().split(",") if m]
 
 
 def test_matcher_and_scenes_import_without_synth_or_gl():
-    code = (
-        "import sys, matcher, scenes\n"
-        "bad = sorted({m.split('.')[0] for m in sys.modules} & {'synth', 'pyrender', 'OpenGL'})\n"
-        "print(','.join(bad))\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == ""
+    assert _loaded_after("import matcher, scenes, matcher.io", ("synth", "pyrender", "OpenGL")) == []
 
 
-@pytest.mark.parametrize(
-    ("package", "forbidden"),
-    [("matcher", {"synth", "scenes", *GL_MODULES}), ("scenes", {"synth", "matcher", *GL_MODULES})],
-)
-def test_package_does_not_import_forbidden(package, forbidden):
-    offenders = {
-        str(p.relative_to(SRC)): sorted(_imports(p) & forbidden)
-        for p in (SRC / package).rglob("*.py")
-        if _imports(p) & forbidden
-    }
-    assert offenders == {}
+def test_importing_synth_and_its_cli_starts_no_gl():
+    statement = "import synth, synth.pair, synth.cli, synth.render, synth.dataset.run"
+    assert _loaded_after(statement, ("pyrender", "OpenGL")) == []
 
 
-def test_only_render_module_imports_gl():
-    users = sorted(
-        str(p.relative_to(SRC)) for p in (SRC / "synth").rglob("*.py") if _imports(p) & set(GL_MODULES)
-    )
-    assert users == ["synth/render/context.py", "synth/render/renderer.py"]
+def test_import_synth_and_the_cli_are_light():
+    """``synth`` and ``synth.cli`` load their names on first use: --help imports no numba/trimesh."""
+    assert _loaded_after("import synth, synth.cli, synth.dataset.engine", ("numba", "trimesh", "cv2")) == []
 
 
-def test_importing_synth_does_not_start_gl():
-    code = "import sys, synth, synth.pair, synth.cli; print(sorted({'pyrender','OpenGL'} & set(sys.modules)))"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
+@pytest.mark.parametrize("package", ["synth", "synth.dataset", "synth.render", "matcher", "scenes"])
+def test_every_public_name_resolves(package):
+    code = (f"import importlib; m = importlib.import_module({package!r})\n"
+            "missing = [n for n in m.__all__ if not hasattr(m, n)]\n"
+            "assert m.__all__ and not missing, missing\n"
+            "assert set(m.__all__) <= set(dir(m))\n")
+    subprocess.run([sys.executable, "-c", code], check=True)
 
 
 @pytest.mark.parametrize("init", sorted(SRC.rglob("__init__.py")), ids=lambda p: str(p.relative_to(SRC)))
