@@ -241,7 +241,7 @@ _DIFFERENCES = """\
   pixel's window (`left_pixel`, our default) gives CT's accuracy, as the paper reports; its
   reduction ratio counts the right codes' bits too (the largest left window that meets each right
   pixel), which is why it is lower than `left_map`'s.
-- **SCT pattern.** Fig. 6 is not available; `matcher.sparse` reconstructs it as the odd-offset
+- **SCT pattern.** Fig. 6 is not available; `matcher.patterns` reconstructs it as the odd-offset
   lattice (100 points at 21 x 21), which may not be the paper's pattern.
 """
 
