@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from matcher.io import read_pfm, write_pfm
+from synth.jobs.golden_compare import compare_render
 from synth.jobs.golden import (
     GOLDEN_CASES,
     GOLDEN_SCENES,
     TOLERANCES,
-    _compare_render,
     format_changes,
     golden_check,
     golden_update,
@@ -117,7 +117,7 @@ def test_render_tolerances_accept_boundary_flips_and_small_noise():
     image = stored.left.copy()
     image[0, :4, 0] ^= 1  # tiny intensity change
     failures: list[str] = []
-    diff = _compare_render("s", _pair(disp, mask, image), stored, failures)
+    diff = compare_render("s", _pair(disp, mask, image), stored, failures)
     assert failures == []
     assert diff.mask_changed == 1 and diff.boundary_pixels == 1
     assert diff.disparity_max_abs == pytest.approx(5e-4, abs=1e-6)
@@ -132,7 +132,7 @@ def test_render_tolerances_reject_interior_changes():
     image = stored.left.copy()
     image[:, :, 0] = 255 - image[:, :, 0]  # a different texture
     failures: list[str] = []
-    _compare_render("s", _pair(disp, mask, image), stored, failures)
+    compare_render("s", _pair(disp, mask, image), stored, failures)
     names = sorted(f.split(":")[0] for f in failures)
     assert names == ["s/disp0.pfm", "s/disp1.pfm", "s/im0.png", "s/im1.png", "s/mask0nocc.png"]
 
@@ -143,7 +143,7 @@ def test_render_tolerances_reject_too_many_boundary_flips():
     mask[:, 23] = 255  # 40 flips on the boundary > 0.5 % of 1600 pixels
     assert 40 > TOLERANCES["boundary_fraction"] * 1600
     failures: list[str] = []
-    _compare_render("s", _pair(stored.disp_left, mask, stored.left), stored, failures)
+    compare_render("s", _pair(stored.disp_left, mask, stored.left), stored, failures)
     assert [f.split(":")[0] for f in failures] == ["s/mask0nocc.png"]
 
 
