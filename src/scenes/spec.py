@@ -9,6 +9,9 @@ On disk a scene is a table with the keys ``version`` (currently 1), ``name``, ``
 ``seed``, ``background``, ``light`` (a table) and ``objects`` (an array of tables, each with a
 ``pose`` and a ``texture`` table). Missing keys take the dataclass defaults; unknown keys are an
 error.
+
+One module on purpose: every dataclass of a scene sits beside the code that turns it into TOML/JSON
+and back, so that a field added to one cannot be forgotten by the other (the round trip is exact).
 """
 
 from __future__ import annotations

@@ -27,6 +27,8 @@ stereoforge.errors.ParameterError: window: expected an odd integer >= 3, got 4
 Traceback (most recent call last):
 ...
 stereoforge.errors.ParameterError: objects[0].texture: kind: expected one of ['noise', 'checker'], got 'perlin'
+
+One module on purpose: the validators share one message format, which is the point of having them.
 """
 
 from __future__ import annotations

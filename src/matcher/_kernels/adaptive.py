@@ -4,6 +4,9 @@ the public boundary.
 Census codes use the word-planar layout ``(H, n_words, W)`` uint64 of
 :mod:`matcher._kernels.census` (contiguous inner loops over ``x``), whose row helpers these
 kernels share.
+
+One module on purpose: the kernels of one method (window selection and the adaptive WTA) share
+their row helpers and their memory layout.
 """
 
 from __future__ import annotations

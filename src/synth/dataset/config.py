@@ -8,6 +8,9 @@ values (:exc:`ConfigError`). ``docs/datasets.md`` is the reference of every key.
 Distributions are written as a plain value (fixed), ``{uniform = [a, b]}``,
 ``{loguniform = [a, b]}`` (``a > 0``) or ``{choice = [v1, v2, ...]}``. An integer key drawn from
 ``uniform``/``loguniform`` gives integers in ``[a, b]`` (both ends included).
+
+One module on purpose: the configuration's schema, its parser and its distributions describe one
+file format.
 """
 
 from __future__ import annotations

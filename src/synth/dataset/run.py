@@ -23,6 +23,9 @@ Guarantees (see ``docs/datasets.md``):
   ``count`` is not part of the hash, so a dataset can be extended;
 - a failing sample leaves no files and raises :exc:`SampleError` naming its index and seed;
   :func:`render_from_manifest` reproduces it alone.
+
+One module on purpose: the run, its resume and its manifests share the on-disk layout and its
+invariants (the folder rename is the completion marker), which are easier to keep in one place.
 """
 
 from __future__ import annotations

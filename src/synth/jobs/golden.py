@@ -29,6 +29,9 @@ same bytes) and reports what changed. Layout::
     golden/<scene>/im0.png ... calib.txt, scene.json      (synth.export.write_pair)
     golden/<scene>/expected/<method>-w<window>.pfm        matcher output, float32
     golden/<scene>/expected/metrics.json                  metrics + operation counts per case
+
+One module on purpose: generation, check and update of one folder share its layout and manifest
+(the render tolerances are in :mod:`synth.jobs.golden_compare`).
 """
 
 from __future__ import annotations
