@@ -10,6 +10,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
+from matcher import METHODS
 from scenes import PRESETS
 from scenes.spec import TEXTURE_KINDS
 from stereoforge.errors import ConfigError, StereoforgeError
@@ -20,7 +21,6 @@ from synth.rig import StereoRig
 __all__ = ["SCHEMA", "StudyConfig", "StudyConfigError", "load_study_config",
            "loads_study_config", "list_studies"]
 
-_METHODS = ("ct", "sct", "cthw", "awct", "awsct", "bm", "sgbm")
 _TEXTURES = tuple(k for k in TEXTURE_KINDS if k != "constant")  # a textured surface
 _MAX_SEED = 2**63
 _TABLES = ("rig", "scene", "match")
@@ -54,7 +54,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "noise_sigma": Key("float", 2.0, lo=0, hi=64, doc="sensor noise, grey levels"),
     },
     "match": {
-        "methods": Key("str", ("ct", "sct", "cthw", "awct", "awsct", "sgbm"), choices=_METHODS,
+        "methods": Key("str", ("ct", "sct", "cthw", "awct", "awsct", "sgbm"), choices=METHODS,
                        array=True, distinct=True, doc="matchers compared"),
         "windows": Key("int", (5, 9, 13, 17, 21), lo=3, hi=255, odd=True, array=True,
                        distinct=True, doc="window sides"),
