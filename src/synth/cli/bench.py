@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import backend_option, fail, out_dir_option
+from synth.cli.options import LazyChoice, backend_option, fail, out_dir_option
 
 __all__ = ["bench"]
 
@@ -46,12 +46,15 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
 @bench.command("match")
 @out_dir_option(default="out/bench")
 @click.option("--repeats", default=3, show_default=True, type=click.IntRange(min=1))
-def bench_match_cmd(out, repeats) -> None:
+@click.option("--isa", default="native", show_default=True,
+              type=LazyChoice("synth.jobs.bench_match:ISAS"),
+              help="avx2: also time an AVX2-only numba build (a fresh process) beside this CPU's.")
+def bench_match_cmd(out, repeats, isa) -> None:
     """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
-    from synth.jobs.bench_match import bench_match, peak_memory
+    from synth.jobs.bench_match import bench_match_isas, peak_memory
     from synth.jobs.bench_render import write_table
 
-    rows = bench_match(repeats=repeats)
+    rows = bench_match_isas(isa, repeats=repeats)
     click.echo(write_table(rows, Path(out), "match"))
     memory = []
     for method, aggregate, lr_check in (("ct", None, False), ("ct", 5, True), ("sct", None, False)):

@@ -20,7 +20,8 @@ import numpy as np
 
 from matcher.match import match
 
-__all__ = ["BenchRow", "bench_match", "format_rows", "peak_memory", "textured_pair"]
+__all__ = ["ISAS", "BenchRow", "bench_match", "bench_match_isas", "format_rows", "peak_memory",
+           "textured_pair"]
 
 #: (label, method, window) of the runs timed by :func:`bench_match`.
 RUNS: tuple[tuple[str, str, int], ...] = (
@@ -170,6 +171,47 @@ def bench_match(
                 BenchRow(label, width, height, n_disp, seconds, seconds / t_sgbm,
                          seconds / t_bm, acc, best)
             )
+    return rows
+
+
+ISAS = ("native", "avx2")
+
+
+def bench_match_isas(isa: str = "native", *, sizes: Sequence[tuple[int, int, int]] = (
+        (640, 480, 64), (1280, 960, 128)), repeats: int = 3, rng: int = 0) -> list[dict]:
+    """:func:`bench_match` rows with an ``isa`` column: this CPU's build, and an AVX2-only one.
+
+    ``isa="avx2"`` runs the same benchmark again in a fresh process whose numba target is an
+    AVX2-only CPU (:data:`synth.jobs.machine.AVX2_TARGET`: many users' CPUs have no AVX-512, and
+    the Hamming kernels compile to ``vpopcntq`` where it exists); its ratios are to OpenCV in that
+    same process. ``isa="native"`` runs this process's build only.
+    """
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from synth.jobs.machine import AVX2_TARGET, describe_machine
+
+    if isa not in ISAS:
+        raise ValueError(f"isa must be one of {', '.join(ISAS)}, got {isa!r}")
+    native = describe_machine(backend=None).numba_target
+    rows = [{"isa": native, **asdict(r)}
+            for r in bench_match(sizes=sizes, repeats=repeats, rng=rng)]
+    if isa == "avx2":
+        code = ("import json, sys; from dataclasses import asdict\n"
+                "from synth.jobs.bench_match import bench_match\n"
+                "from synth.jobs.machine import describe_machine\n"
+                f"rows = bench_match(sizes={tuple(map(tuple, sizes))!r}, repeats={repeats}, "
+                f"rng={rng})\n"
+                "print(json.dumps([describe_machine(backend=None).numba_target,"
+                " [asdict(r) for r in rows]]))\n")
+        out = subprocess.run([sys.executable, "-c", code], env={**os.environ, **AVX2_TARGET},
+                             capture_output=True, text=True, check=False)
+        if out.returncode != 0:
+            raise RuntimeError(f"the AVX2 benchmark process failed:\n{out.stderr.strip()}")
+        target, avx2_rows = json.loads(out.stdout.strip().splitlines()[-1])
+        rows += [{"isa": target, **r} for r in avx2_rows]
     return rows
 
 

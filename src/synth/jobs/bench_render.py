@@ -1,13 +1,16 @@
 """Benchmark jobs and their tables (``stereoforge bench ...``).
 
-Tables are printed and written as Markdown and CSV (atomically). Speed targets live here, never in
+Tables are printed and written as Markdown and CSV (atomically), the Markdown headed by the machine
+they ran on (:mod:`synth.jobs.machine`). Speed targets live here, never in
 timed unit tests.
 """
 
 from __future__ import annotations
 
 import csv
+import functools
 import io
+import json
 import resource
 import tempfile
 import time
@@ -15,6 +18,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from tqdm import tqdm
+
+from synth.jobs.machine import MachineInfo, describe_machine
 
 __all__ = ["parse_sizes", "bench_render", "format_markdown", "write_table"]
 
@@ -140,18 +145,22 @@ def format_markdown(rows: Sequence[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_table(rows: Sequence, out: Path, name: str) -> str:
+def write_table(rows: Sequence, out: Path, name: str, *,
+                machine: MachineInfo | None = None) -> str:
     """Write ``rows`` to ``out/<name>.md`` and ``out/<name>.csv`` atomically; return the Markdown.
 
-    ``rows`` are dicts or dataclass instances (one per table row, same fields).
+    ``rows`` are dicts or dataclass instances (one per table row, same fields). The Markdown
+    starts with the machine it ran on (``machine``, default :func:`describe_machine` of this
+    process), which is also written to ``out/<name>.machine.json``; the CSV holds the rows only.
     """
     import dataclasses
 
     from matcher.io import atomic_write_bytes
 
+    info = machine if machine is not None else _this_machine()
     rows = [dataclasses.asdict(r) if dataclasses.is_dataclass(r) else dict(r) for r in rows]
     out.mkdir(parents=True, exist_ok=True)
-    text = format_markdown(rows)
+    text = info.markdown() + "\n\n" + format_markdown(rows)
     buf = io.StringIO()
     if rows:
         writer = csv.DictWriter(buf, fieldnames=list(rows[0].keys()))
@@ -159,4 +168,11 @@ def write_table(rows: Sequence, out: Path, name: str) -> str:
         writer.writerows(rows)
     atomic_write_bytes(out / f"{name}.md", (text + "\n").encode())
     atomic_write_bytes(out / f"{name}.csv", buf.getvalue().encode())
+    atomic_write_bytes(out / f"{name}.machine.json",
+                       (json.dumps(info.to_dict(), indent=2) + "\n").encode())
     return text + f"\n\nwritten: {out / (name + '.md')}, {out / (name + '.csv')}"
+
+
+@functools.cache
+def _this_machine() -> MachineInfo:
+    return describe_machine()

@@ -19,8 +19,8 @@ from contextlib import contextmanager
 from stereoforge.errors import BackendError
 
 __all__ = ["BACKENDS", "DEBIAN_FIX", "GLBackendError", "check_backend_name", "check_threads",
-           "choose_backend", "driver_threads", "fix_line", "platform_in_use", "refuse_late_threads",
-           "resolve_backend"]
+           "choose_backend", "driver_threads", "fix_line", "gl_renderer_string", "platform_in_use",
+           "refuse_late_threads", "resolve_backend"]
 
 #: Backends in the order ``backend="auto"`` tries them.
 BACKENDS = ("egl", "osmesa")
@@ -66,6 +66,10 @@ context.destroy()
 """
 
 
+#: GL_RENDERER of each backend whose probe succeeded in this process.
+_RENDERERS: dict[str, str] = {}
+
+
 @functools.cache
 def probe_backend(backend: str) -> str | None:
     """Try ``backend`` in a subprocess; ``None`` if it starts, else the error and its fix."""
@@ -85,6 +89,8 @@ def probe_backend(backend: str) -> str | None:
     except (OSError, subprocess.TimeoutExpired) as exc:  # pragma: no cover - defensive
         return f"probe failed to run: {exc}"
     if out.returncode == 0:
+        lines = out.stdout.strip().splitlines()
+        _RENDERERS[backend] = lines[-1] if lines else "unknown"
         return None
     tagged = [ln for ln in out.stdout.splitlines() if ln.startswith(_PROBE_TAG)]
     if tagged:
@@ -93,6 +99,22 @@ def probe_backend(backend: str) -> str | None:
         lines = [ln for ln in (out.stderr or out.stdout).strip().splitlines() if ln.strip()]
         problem, fix = (lines[-1] if lines else f"exit status {out.returncode}"), DEBIAN_FIX[backend]
     return problem if fix is None else f"{problem}\n    {fix_line(fix)}"
+
+
+def gl_renderer_string(backend: str = "auto") -> str:
+    """``GL_RENDERER`` of the backend a :class:`Renderer` would start here (probed, not started).
+
+    Raises
+    ------
+    GLBackendError
+        If no requested backend starts.
+    """
+    name = resolve_backend(backend)
+    if name not in _RENDERERS:  # chosen without a probe (the platform was already locked)
+        probe_backend.cache_clear()
+        if probe_backend(name) is not None:
+            return "unknown"
+    return _RENDERERS[name]
 
 
 def platform_in_use() -> str | None:
