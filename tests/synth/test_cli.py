@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -155,3 +156,34 @@ def test_render_from_manifest_respects_overwrite(tmp_path, renderer):
     done = _run("render", "--from-manifest", tmp_path / "ds", 0, "--out", out, "--overwrite")
     assert done.exit_code == 0, done.output
     assert (out / "im0.png").read_bytes() == (tmp_path / "ds" / "000000" / "im0.png").read_bytes()
+
+
+def test_match_reports_the_warm_time_and_the_first_call_apart(tmp_path):
+    from synth.jobs.timing import first_and_warm
+
+    golden = Path(__file__).resolve().parents[2] / "golden" / "boxes"
+    result = _run("match", golden / "im0.png", golden / "im1.png", "--method", "ct", "--window", "5",
+                  "--max-disp", "24", "--out", tmp_path / "d.pfm")
+    assert result.exit_code == 0, result.output
+    assert re.search(r"ct 5x5 D=24: [0-9.]+ ms warm \(first call [0-9]+ ms, ", result.output)
+    calls = []
+    timed = first_and_warm(lambda: calls.append(1) or len(calls))
+    assert calls == [1, 1] and timed.result == 2 and timed.compile_s == 0.0
+
+
+@pytest.mark.slow
+def test_match_says_when_it_compiles_kernels(tmp_path):
+    """A fresh numba cache (a new install): the first call's compile time is named, once."""
+    import os
+    import subprocess
+    import sys
+
+    golden = Path(__file__).resolve().parents[2] / "golden" / "boxes"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache")}
+    args = [str(golden / "im0.png"), str(golden / "im1.png"), "--method", "sct", "--window", "5",
+            "--max-disp", "16", "--out", str(tmp_path / "d.pfm")]
+    code = "import sys; from synth.cli import main; main(sys.argv[1:])"
+    runs = [subprocess.run([sys.executable, "-c", code, "match", *args], env=env,
+                           capture_output=True, text=True, check=True).stdout for _ in range(2)]
+    assert re.search(r"ms of it compiling kernels once, cached for later runs", runs[0]), runs[0]
+    assert "kernels loaded from numba's cache" in runs[1], runs[1]

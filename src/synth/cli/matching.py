@@ -27,24 +27,23 @@ __all__ = ["eval_cmd", "match_cmd"]
 @click.option("--aggregate", default=None, type=int, help="Box aggregation window (default: none).")
 def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, aggregate) -> None:
     """Match LEFT and RIGHT images and write the left disparity map to --out."""
-    import time
-
     from matcher import match
     from matcher.io import read_image, write_pfm
+    from synth.jobs.timing import first_and_warm
 
     try:
-        left_img, right_img = read_image(left), read_image(right)
-        t0 = time.perf_counter()
-        result = match(left_img, right_img, method=method, window=window, max_disparity=max_disp,
-                       lr_check=lr_check, subpixel=subpixel, aggregate=aggregate)
-        seconds = time.perf_counter() - t0
         if out.suffix.lower() != ".pfm":
             raise ValueError(f"--out must be a .pfm file (got {out.name})")
+        left_img, right_img = read_image(left), read_image(right)
+        timed = first_and_warm(lambda: match(
+            left_img, right_img, method=method, window=window, max_disparity=max_disp,
+            lr_check=lr_check, subpixel=subpixel, aggregate=aggregate))
+        result = timed.result
         write_pfm(out, result.disparity)
     except (ValueError, FileNotFoundError, TypeError) as exc:
         fail(exc)
     invalid = 100.0 * float((~(result.disparity < float("inf"))).mean())
-    click.echo(f"{method} {window}x{window} D={max_disp}: {seconds * 1e3:.1f} ms, "
+    click.echo(f"{method} {window}x{window} D={max_disp}: {timed.describe()}, "
                f"invalid {invalid:.2f} %, wrote {out}")
     if result.ops is not None:
         click.echo(f"operations: {result.ops}")
