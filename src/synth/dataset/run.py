@@ -44,7 +44,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm import tqdm
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, StereoforgeError
@@ -52,6 +51,7 @@ from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
 from synth.export import FORMATS, prepare_output_dir, write_pair
 from synth.photometric import apply_photometric
+from synth.progress import progress as progress_bar
 from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
 from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density
 
@@ -401,7 +401,8 @@ def run_dataset(
                 shutil.rmtree(stale, ignore_errors=True)
         todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]
         task = SampleTask(cfg, out, fmt, backend)
-        bar = tqdm(total=len(todo), desc=f"dataset {cfg.name}", unit="pair", disable=not progress)
+        bar = progress_bar(total=len(todo), desc=f"dataset {cfg.name}", unit="pair",
+                           enabled=progress)
         try:
             for _ in run_tasks(task, todo, workers=workers, engine=engine, address=address):
                 bar.update()

@@ -17,8 +17,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from tqdm import tqdm
 
+from synth.progress import progress as progress_bar
 from synth.jobs.machine import MachineInfo, describe_machine
 
 __all__ = ["parse_sizes", "bench_render", "format_markdown", "write_table"]
@@ -81,7 +81,7 @@ def bench_render(
     names = list(presets) if presets is not None else [name for name, _ in list_presets()]
     rows = []
     jobs = [(w, h, name) for (w, h) in sizes for name in names]
-    bar = tqdm(total=len(jobs) * pairs, desc="bench render", unit="pair", disable=not progress)
+    bar = progress_bar(total=len(jobs) * pairs, desc="bench render", unit="pair", enabled=progress)
     for w, h in sizes:
         rig = StereoRig.default(w, h)
         with Renderer(w, h, backend=backend, threads=threads) as renderer, \

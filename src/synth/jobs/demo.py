@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tqdm import tqdm
 
 from scenes import list_presets
+from synth.progress import progress as progress_bar
 from synth.export import prepare_output_dir, resolve_scene, write_pair
 from synth.pair import render_pair
 from synth.preview import contact_sheet
@@ -53,7 +53,7 @@ def run_demo(
     out = prepare_output_dir(out, overwrite=overwrite)
     rows = []
     with Renderer(width, height, backend=backend) as renderer:
-        for name in tqdm(names, desc="demo", unit="scene", disable=not progress):
+        for name in progress_bar(names, desc="demo", unit="scene", enabled=progress):
             spec, seed_used = resolve_scene(name, seed=seed)
             pair = render_pair(spec, rig, renderer=renderer)
             scene_dir = out / name

@@ -27,6 +27,7 @@ from matcher.edges import canny_edges
 from matcher.io import atomic_write_bytes, load_middlebury_2005, save_figure_atomic
 from matcher.match import match
 from matcher.metrics import evaluate
+from synth.progress import progress as progress_bar
 
 __all__ = ["PAPER_SCENES", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SIZES", "run_paper"]
 
@@ -273,7 +274,7 @@ def run_paper(
         ``disparity_<scene>.png`` (Fig. 8), ``largest_<scene>.png`` (Figs. 9-14),
         ``rms_<scene>.png`` (Figs. 15-20).
     progress : bool, default True
-        Show a tqdm progress bar.
+        Show a progress bar on stderr (:func:`synth.progress.progress`).
     windows : sequence of int
         Census windows of Table 1 (odd, >= 3).
     max_windows : sequence of int
@@ -312,10 +313,8 @@ def run_paper(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
 
-    from tqdm import tqdm
-
     n_steps = len(scenes) * (2 * len(windows) + 4 * len(max_windows))
-    bar = tqdm(total=n_steps, disable=not progress, desc=f"paper ({size})")
+    bar = progress_bar(total=n_steps, enabled=progress, desc=f"paper ({size})")
     t1: list[dict] = []
     t2: list[dict] = []
     t3: list[dict] = []

@@ -42,6 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from matcher.io import atomic_write_bytes
+from synth.progress import progress as progress_bar
 from synth.dataset.engine import run_tasks
 from synth.jobs.study_config import (
     StudyConfig,
@@ -191,7 +192,7 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     workers : int
         Worker processes (one GL renderer each; ``1`` runs in this process).
     progress : bool
-        Show a tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`synth.progress.progress`).
     backend : {"auto", "egl", "osmesa"}
 
     Returns
@@ -199,8 +200,7 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     Path
         ``out``.
     """
-    from tqdm import tqdm
-
+    
     cfg = load_study_config(config)
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}")
@@ -214,8 +214,8 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
                if _load_cell(out / _cell_path(cfg, *c), prints[i]) is None]
     threads = max(1, (os.cpu_count() or 1) // workers) if workers > 1 else None
     task = _CellTask(cfg, out, cells, backend, threads)
-    bar = tqdm(total=len(cells), initial=len(cells) - len(pending), disable=not progress,
-               desc=f"study {cfg.name}", unit="cell")
+    bar = progress_bar(total=len(cells), initial=len(cells) - len(pending), enabled=progress,
+                       desc=f"study {cfg.name}", unit="cell")
     try:
         for _ in run_tasks(task, pending, workers=workers):
             bar.update(1)
