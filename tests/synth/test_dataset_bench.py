@@ -70,6 +70,9 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     assert (row["config"], row["size"], row["workers"], row["pairs"]) == ("tiny", "32x24", 1, 3)
     assert row["steady_cpu_ms_per_pair"] > 0 and row["efficiency"] == 1
     assert row["cold"] is None  # one worker: no worker server
+    assert row["minutes_for_35454"] == pytest.approx(35454 / row["steady_pairs_per_s"] / 60)
+    (big,) = bench_dataset(configs=(str(path),), count=2, workers=(1,), size=(48, 30))
+    assert big["size"] == "48x30"
     prof = profile_dataset(str(path), count=2)
     stages = ("draw", "search", "render", "photometric", "stats", "write")
     for suffix in ("", "_cpu"):
@@ -94,6 +97,8 @@ def test_bench_marks_only_the_first_multi_worker_run_cold(tmp_path, renderer):
     (["--workers", "0"], "--workers must be positive ints"),
     (["--configs", " , "], "--configs is empty"),
     (["--configs", "no-such-config"], "no-such-config"),
+    (["--size", "960by540"], "bad size '960by540': expected WIDTHxHEIGHT"),
+    (["--size", "64x48,32x24"], "--size takes one WxH, got '64x48,32x24'"),
 ])
 def test_bench_dataset_cli_rejects_bad_options(tmp_path, args, message):
     from click.testing import CliRunner
@@ -104,3 +109,14 @@ def test_bench_dataset_cli_rejects_bad_options(tmp_path, args, message):
     assert result.exit_code == 2, result.output
     assert message in result.output
     assert not any(tmp_path.iterdir())
+
+
+def test_resized_keeps_the_field_of_view():
+    from synth.dataset import load_config
+    from synth.jobs.bench_dataset import resized
+
+    cfg = load_config("flying")
+    big = resized(cfg, 960, 540)
+    assert (big.rig.width, big.rig.height) == (960, 540)
+    assert big.rig.fx / big.rig.width == cfg.rig.fx / cfg.rig.width
+    assert big.scene == cfg.scene and big.seed == cfg.seed

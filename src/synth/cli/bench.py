@@ -84,11 +84,13 @@ def bench_paper_cmd(out) -> None:
                    "run twice (the second run finds the worker server started).")
 @click.option("--workers", "workers_text", default="1,2", show_default=True,
               help="Comma-separated worker counts; efficiency is relative to the first.")
+@click.option("--size", "size_text", default=None, metavar="WxH",
+              help="Render at this size instead of each config's (e.g. 960x540, FlyingThings3D's).")
 @backend_option
-def bench_dataset_cmd(out, count, configs, workers_text, backend) -> None:
-    """Dataset pairs/s at 640x480 with 1 and 2 workers (writing included) and scaling."""
-    from synth.jobs.bench_render import write_table
+def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend) -> None:
+    """Dataset pairs/s with 1 and 2 workers (writing included), scaling, time for 35,454 pairs."""
     from synth.jobs.bench_dataset import bench_dataset
+    from synth.jobs.bench_render import parse_sizes, write_table
 
     names = [c.strip() for c in configs.split(",") if c.strip()]
     parts = [w.strip() for w in workers_text.split(",") if w.strip()]
@@ -98,8 +100,11 @@ def bench_dataset_cmd(out, count, configs, workers_text, backend) -> None:
         fail(ValueError(f"--workers must be positive ints separated by commas, got "
                          f"{workers_text!r}"))
     try:
+        sizes = parse_sizes(size_text) if size_text is not None else [None]
+        if len(sizes) != 1:
+            raise ValueError(f"--size takes one WxH, got {size_text!r}")
         rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
-                             backend=backend, progress=True)
+                             backend=backend, progress=True, size=sizes[0])
     except (ValueError, FileNotFoundError) as exc:
         fail(exc)
     click.echo(write_table(rows, Path(out), "dataset"))

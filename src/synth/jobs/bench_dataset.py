@@ -19,9 +19,12 @@ import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["bench_dataset", "profile_dataset", "check_edge_density"]
+if TYPE_CHECKING:
+    from synth.dataset.config import DatasetConfig
+
+__all__ = ["bench_dataset", "profile_dataset", "check_edge_density", "resized"]
 
 
 class _Stamped:
@@ -63,6 +66,10 @@ def _cpu_seconds() -> float:
     return total
 
 
+#: Training pairs of FlyingThings3D (960 x 540): the scale the steady rate is extrapolated to.
+FLYINGTHINGS3D_PAIRS = 35_454
+
+
 def bench_dataset(
     *,
     configs: Sequence[str] = ("planes", "texture-sweep", "flying"),
@@ -70,6 +77,7 @@ def bench_dataset(
     workers: Sequence[int] = (1, 2),
     backend: str = "auto",
     progress: bool = False,
+    size: tuple[int, int] | None = None,
 ) -> list[dict]:
     """Pairs per second of whole dataset runs, per configuration and worker count.
 
@@ -83,6 +91,9 @@ def bench_dataset(
         Worker counts to compare; efficiency is relative to the first.
     backend : {"auto", "egl", "osmesa"}
     progress : bool
+    size : (width, height), optional
+        Render at this size instead of the configuration's (``fx`` scales with the width, so the
+        horizontal field of view and the scenes' framing stay those of the configuration).
 
     Returns
     -------
@@ -96,7 +107,8 @@ def bench_dataset(
         of the workers, all threads, per pair at steady state: what the run costs without
         start-up, whatever else loads the machine; ``1000 * cores / steady_cpu_ms_per_pair``
         bounds the steady rate of an idle machine), ``efficiency`` (steady rate over
-        ``workers / workers[0]`` times the first one's) and ``cold`` (True for the first
+        ``workers / workers[0]`` times the first one's), ``minutes_for_35454`` (the steady rate
+        extrapolated to FlyingThings3D's 35,454 training pairs) and ``cold`` (True for the first
         multi-worker run of this call; see below).
 
     The first multi-worker run of a process also starts the engine's fork server (imports and
@@ -110,6 +122,8 @@ def bench_dataset(
     from synth.dataset.engine import run_tasks
 
     loaded = [load_config(name) for name in configs]  # every error before the first run
+    if size is not None:
+        loaded = [resized(cfg, *size) for cfg in loaded]
     rows = []
     cold = True
     for cfg in loaded:
@@ -137,9 +151,28 @@ def bench_dataset(
                          "pairs_per_cpu_s": count / cpu,
                          "steady_cpu_ms_per_pair": 1e3 * _steady_cpu_per_pair(stamps),
                          "efficiency": steady / base_steady / scale,
+                         "minutes_for_35454": FLYINGTHINGS3D_PAIRS / steady / 60.0,
                          "cold": cold if w > 1 else None})
             cold = cold and w == 1
     return rows
+
+
+def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
+    """``config`` rendering ``width x height`` pixels, ``fx`` scaled with the width.
+
+    Examples
+    --------
+    >>> from synth.dataset import load_config
+    >>> cfg = resized(load_config("flying"), 960, 540)
+    >>> cfg.rig.width, cfg.rig.height, cfg.rig.fx
+    (960, 540, 900.0)
+    """
+    from synth.dataset.config import config_from_dict
+
+    data = config.to_dict()
+    data["rig"] = {**data["rig"], "width": int(width), "height": int(height),
+                   "fx": config.rig.fx * width / config.rig.width}
+    return config_from_dict(data, source=f"{config.source} at {width}x{height}")
 
 
 def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto") -> dict:
