@@ -74,12 +74,12 @@ def test_render_writes_middlebury_layout_and_refuses_non_empty_dir(tmp_path, ren
     result = _run(*args)
     assert result.exit_code == 0, result.output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["calib.txt", "disp0.pfm", "disp1.pfm", "im0.png", "im1.png",
-                     "mask0nocc.png", "preview.png", "scene.json"]
+    assert names == ["calib.txt", "disp0GT.pfm", "disp1GT.pfm", "im0.png", "im1.png", "im1E.png",
+                     "im1L.png", "mask0nocc.png", "preview.png", "scene.json"]
     record = json.loads((out / "scene.json").read_text())
     assert record["seed"] == 2 and record["rig"]["width"] == 64
     assert record["scene"]["name"] == "slanted_plane"
-    disp = read_pfm(out / "disp0.pfm")
+    disp = read_pfm(out / "disp0GT.pfm")
     assert disp.shape == (48, 64) and np.isfinite(disp).all()
 
     again = _run(*args)
@@ -92,10 +92,15 @@ def test_render_kitti_layout(tmp_path, renderer):
     out = tmp_path / "k"
     result = _run("render", "boxes", "--out", out, "--format", "kitti", "--width", 64, "--height", 48)
     assert result.exit_code == 0, result.output
-    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0"):
-        assert (out / sub / "000000_10.png").is_file()
-    occ = cv2.imread(str(out / "disp_occ_0" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
+    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0", "obj_map"):
+        assert (out / "training" / sub / "000000_10.png").is_file()
+    assert (out / "training" / "calib_cam_to_cam" / "000000.txt").is_file()
+    occ = cv2.imread(str(out / "training" / "disp_occ_0" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
     assert occ.dtype == np.uint16 and occ.max() > 0
+    # boxes: four boxes (foreground) before a wall (background, a plane object)
+    obj = cv2.imread(str(out / "training" / "obj_map" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
+    assert obj.dtype == np.uint8 and set(np.unique(obj)) == {0, 1}
+    assert 0.05 < float(np.mean(obj == 1)) < 0.9
 
 
 def _shifted_pair(tmp_path: Path, shift: int = 4):
