@@ -77,3 +77,16 @@ def kitti_devkit(clients_dir: Path, tmp_path_factory: pytest.TempPathFactory) ->
         return built[n_frames]
 
     return build
+
+
+@pytest.fixture(scope="session")
+def renderer(require_or_skip):
+    """A 160 x 120 renderer; skips without GL unless CI requires it (STEREOFORGE_REQUIRE_GL)."""
+    from synth.render.renderer import GLBackendError, Renderer
+
+    try:
+        r = Renderer(160, 120, backend=os.environ.get("STEREOFORGE_TEST_GL_BACKEND", "auto"))
+    except GLBackendError as exc:
+        require_or_skip(f"no OpenGL backend: {exc}", env="STEREOFORGE_REQUIRE_GL")
+    with r:
+        yield r

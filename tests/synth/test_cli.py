@@ -160,3 +160,24 @@ def test_render_from_manifest_respects_overwrite(tmp_path, renderer):
     done = _run("render", "--from-manifest", tmp_path / "ds", 0, "--out", out, "--overwrite")
     assert done.exit_code == 0, done.output
     assert (out / "im0.png").read_bytes() == (tmp_path / "ds" / "000000" / "im0.png").read_bytes()
+
+
+def test_eval_benchmark_labels_each_convention(tmp_path):
+    gt = np.full((8, 12), 10.0, np.float32)
+    est = gt.copy()
+    est[:, :3] = np.inf  # holes: the devkit interpolates them, ETH3D counts them as coverage
+    est[0, 5] = 20.0
+    write_pfm(tmp_path / "gt.pfm", gt)
+    write_pfm(tmp_path / "est.pfm", est)
+    result = _run("eval", tmp_path / "est.pfm", tmp_path / "gt.pfm", "--benchmark", "all", "--json")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert sorted(report) == ["eth3d all", "kitti occ", "middlebury all"]
+    assert "devkit" in report["kitti occ"]["convention"]
+    assert report["kitti occ"]["all"] == pytest.approx(100 / 96)  # holes filled with 10: one outlier
+    assert report["kitti occ"]["density"] == pytest.approx(75.0)
+    assert report["middlebury all"]["invalid"] == pytest.approx(25.0)
+    assert report["eth3d all"]["coverage"] == pytest.approx(75.0)
+    assert report["eth3d all"]["bad_2"] == pytest.approx(100 / 72)
+    table = _run("eval", tmp_path / "est.pfm", tmp_path / "gt.pfm", "--benchmark", "kitti")
+    assert table.exit_code == 0 and table.output.startswith("kitti occ  (KITTI 2015 devkit")
