@@ -7,7 +7,8 @@ PYTHON    ?= python3
 VENV      ?= .venv
 PY        := $(VENV)/bin/python
 PIP       := $(PY) -m pip
-SYS_PKGS  := python3-venv libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgles2 libosmesa6 libglu1-mesa
+SYS_PKGS  := python3-venv libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgles2 libosmesa6 libglu1-mesa \
+             g++ make libpng++-dev tcsh
 PYTEST_ARGS ?=
 
 .PHONY: demo test setup system venv bench clean
@@ -20,7 +21,9 @@ test: setup
 
 setup: system venv
 
-# System libraries for headless OpenGL. Skipped when already installed.
+# System libraries for headless OpenGL, and the compilers/libraries the tests need to build the
+# real stereo tools of ../shared/clients (MiddEval3 SDK: g++, libpng; its runeval: tcsh; KITTI
+# devkit: libpng++). Skipped when already installed.
 system:
 	@if dpkg -s $(SYS_PKGS) >/dev/null 2>&1; then \
 	  echo "system packages present: $(SYS_PKGS)"; \

@@ -14,14 +14,20 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.io import atomic_write_bytes, encode_png, write_kitti, write_middlebury
-from scenes import SceneSpec, get_preset, load_scene, scene_to_dict
+from matcher.io import atomic_write_bytes, encode_png, format_kitti_calib, write_kitti, write_middlebury
+from scenes import SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
 from synth.formats import FORMATS
 from synth.pair import StereoPair
 from synth.preview import preview_image
 
-__all__ = ["FORMATS", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for", "write_pair"]
+__all__ = ["FORMATS", "KITTI_ROOT", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for",
+           "kitti_calib_for", "foreground_map", "write_pair"]
+
+#: Folder of a KITTI output that holds ``image_2/`` ... (KITTI's and RAFT-Stereo's ``training/``).
+KITTI_ROOT = "training"
+#: |d - d_plane| (px) below which a pixel lies on a plane object (the golden disparity tolerance).
+_ON_PLANE_PX = 1e-3
 
 class OutputDirError(DatasetError):
     """The output directory cannot be used as asked."""
@@ -101,6 +107,37 @@ def calib_for(pair: StereoPair) -> dict:
     return pair.rig.middlebury_calib(ndisp=ndisp, vmin=vmin, vmax=vmax)
 
 
+def kitti_calib_for(pair: StereoPair) -> str:
+    """``calib_cam_to_cam`` text of a rendered pair (:func:`matcher.io.format_kitti_calib`)."""
+    rig = pair.rig
+    return format_kitti_calib(fx=rig.fx, fy=rig.fy, cx=rig.cx, cy=rig.cy, baseline=rig.baseline,
+                              width=rig.width, height=rig.height)
+
+
+def foreground_map(pair: StereoPair, scene: SceneSpec) -> np.ndarray:
+    """KITTI ``obj_map`` of a rendered pair: 0 background, 1 foreground.
+
+    The renderer does not output object ids yet, so objects are split by kind: every ``plane``
+    object (walls, ground planes) is background, every other object (boxes, spheres, cylinders,
+    Moebius strips, terrain) foreground. A pixel with ground truth is background when its
+    disparity lies within 1e-3 px of the exact disparity of one of the scene's planes (the
+    unbounded plane: a foreground surface exactly on a plane's extension counts as background),
+    foreground otherwise; pixels without ground truth are 0, as in KITTI.
+
+    Returns
+    -------
+    (H, W) uint8 array
+    """
+    disp = np.asarray(pair.disp_left, dtype=np.float64)
+    background = ~np.isfinite(disp)
+    for obj in scene.objects:
+        if obj.kind == "plane":
+            n, c = plane_equation(obj)
+            on_plane = np.abs(disp - pair.rig.plane_disparity(n, c)) <= _ON_PLANE_PX
+            background |= on_plane
+    return np.where(background, 0, 1).astype(np.uint8)
+
+
 @functools.cache
 def _version() -> str:
     try:
@@ -145,6 +182,9 @@ def write_pair(
         The fully resolved scene, stored in ``scene.json`` with the rig and seed.
     seed : int
     fmt : {"middlebury", "kitti"}
+        ``middlebury``: a MiddEval3 scene folder in ``out``; ``kitti``: frame ``index`` under
+        ``out/training/`` (with ``obj_map/`` from :func:`foreground_map` and
+        ``calib_cam_to_cam/``), ``scene.json`` and ``preview.png`` in ``out``.
     index : int
         Frame index in the KITTI layout.
     preview : bool
@@ -176,8 +216,10 @@ def write_pair(
         )
     else:
         written = list(
-            write_kitti(out, index, left=pair.left, right=pair.right, disp_left=pair.disp_left,
-                        mask_left=pair.mask_left, fsync=fsync)
+            write_kitti(out / KITTI_ROOT, index, left=pair.left, right=pair.right,
+                        disp_left=pair.disp_left, mask_left=pair.mask_left,
+                        obj_map=foreground_map(pair, scene), calib=kitti_calib_for(pair),
+                        fsync=fsync)
         )
     record = {
         "stereoforge_version": _version(),

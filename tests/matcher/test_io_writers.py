@@ -44,7 +44,8 @@ def test_write_middlebury_round_trip(tmp_path):
     out = tmp_path / "scene"
     files = write_middlebury(out, left=left, right=right, disp_left=disp, disp_right=disp_right,
                              mask_left=mask, calib=CALIB)
-    assert [f.name for f in files] == ["im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "mask0nocc.png", "calib.txt"]
+    assert [f.name for f in files] == ["im0.png", "im1.png", "im1E.png", "im1L.png", "disp0GT.pfm",
+                                       "disp1GT.pfm", "mask0nocc.png", "calib.txt"]
     assert _files(out) == sorted(f.name for f in files)  # no temporary files left behind
     s = load_middlebury_2014(out)
     np.testing.assert_array_equal(s.left, left)
@@ -52,7 +53,7 @@ def test_write_middlebury_round_trip(tmp_path):
     np.testing.assert_array_equal(s.disp_left, disp)
     np.testing.assert_array_equal(s.disp_right, np.where(np.isnan(disp_right), np.inf, disp_right))
     np.testing.assert_array_equal(s.mask_left, mask)
-    assert (out / "disp0.pfm").read_bytes()[:14] == b"Pf\n4 2\n-1\n" + struct.pack("<f", 0.0)  # bottom row first
+    assert (out / "disp0GT.pfm").read_bytes()[:14] == b"Pf\n4 2\n-1\n" + struct.pack("<f", 0.0)  # bottom row first
 
 
 def test_calib_txt_exact_text(tmp_path):
@@ -71,7 +72,7 @@ def test_calib_txt_exact_text(tmp_path):
         "vmin=0\n"
         "vmax=8\n"
     )
-    assert not (tmp_path / "disp1.pfm").exists()
+    assert not (tmp_path / "disp1GT.pfm").exists()
     assert read_calib(tmp_path / "calib.txt")["cam0"].tolist() == K.tolist()
 
 
@@ -149,3 +150,16 @@ def test_write_kitti_bad_index(tmp_path):
     for index in (-1, 10**6, 1.0, True):
         with pytest.raises(ValueError, match="index"):
             write_kitti(tmp_path, index, left=left, right=right, disp_left=disp, mask_left=mask)
+
+
+def test_calib_isint_defaults_to_0_and_gt_uses_the_middeval3_names(tmp_path):
+    """Without ``isint`` the MiddEval3 SDK's runeval shifts evaldisp's arguments and scores
+    occluded pixels too; the writer always writes it (0: float disparities)."""
+    left, right, disp, mask, disp_right = _frame()
+    write_middlebury(tmp_path, left=left, right=right, disp_left=disp, disp_right=disp_right,
+                     mask_left=mask, calib=CALIB)
+    assert "isint=0\n" in (tmp_path / "calib.txt").read_text()
+    assert read_calib(tmp_path / "calib.txt")["isint"] == 0
+    assert not (tmp_path / "disp0.pfm").exists() and (tmp_path / "disp0GT.pfm").is_file()
+    for name in ("im1E.png", "im1L.png"):
+        assert (tmp_path / name).read_bytes() == (tmp_path / "im1.png").read_bytes()

@@ -75,12 +75,12 @@ def test_render_writes_middlebury_layout_and_refuses_non_empty_dir(tmp_path, ren
     result = _run(*args)
     assert result.exit_code == 0, result.output
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["calib.txt", "disp0.pfm", "disp1.pfm", "im0.png", "im1.png",
-                     "mask0nocc.png", "preview.png", "scene.json"]
+    assert names == ["calib.txt", "disp0GT.pfm", "disp1GT.pfm", "im0.png", "im1.png", "im1E.png",
+                     "im1L.png", "mask0nocc.png", "preview.png", "scene.json"]
     record = json.loads((out / "scene.json").read_text())
     assert record["seed"] == 2 and record["rig"]["width"] == 64
     assert record["scene"]["name"] == "slanted_plane"
-    disp = read_pfm(out / "disp0.pfm")
+    disp = read_pfm(out / "disp0GT.pfm")
     assert disp.shape == (48, 64) and np.isfinite(disp).all()
 
     again = _run(*args)
@@ -93,10 +93,15 @@ def test_render_kitti_layout(tmp_path, renderer):
     out = tmp_path / "k"
     result = _run("render", "boxes", "--out", out, "--format", "kitti", "--width", 64, "--height", 48)
     assert result.exit_code == 0, result.output
-    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0"):
-        assert (out / sub / "000000_10.png").is_file()
-    occ = cv2.imread(str(out / "disp_occ_0" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
+    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0", "obj_map"):
+        assert (out / "training" / sub / "000000_10.png").is_file()
+    assert (out / "training" / "calib_cam_to_cam" / "000000.txt").is_file()
+    occ = cv2.imread(str(out / "training" / "disp_occ_0" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
     assert occ.dtype == np.uint16 and occ.max() > 0
+    # boxes: four boxes (foreground) before a wall (background, a plane object)
+    obj = cv2.imread(str(out / "training" / "obj_map" / "000000_10.png"), cv2.IMREAD_UNCHANGED)
+    assert obj.dtype == np.uint8 and set(np.unique(obj)) == {0, 1}
+    assert 0.05 < float(np.mean(obj == 1)) < 0.9
 
 
 def _shifted_pair(tmp_path: Path, shift: int = 4):
@@ -187,3 +192,24 @@ def test_match_says_when_it_compiles_kernels(tmp_path):
                            capture_output=True, text=True, check=True).stdout for _ in range(2)]
     assert re.search(r"ms of it compiling kernels once, cached for later runs", runs[0]), runs[0]
     assert "kernels loaded from numba's cache" in runs[1], runs[1]
+
+
+def test_eval_benchmark_labels_each_convention(tmp_path):
+    gt = np.full((8, 12), 10.0, np.float32)
+    est = gt.copy()
+    est[:, :3] = np.inf  # holes: the devkit interpolates them, ETH3D counts them as coverage
+    est[0, 5] = 20.0
+    write_pfm(tmp_path / "gt.pfm", gt)
+    write_pfm(tmp_path / "est.pfm", est)
+    result = _run("eval", tmp_path / "est.pfm", tmp_path / "gt.pfm", "--benchmark", "all", "--json")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert sorted(report) == ["eth3d all", "kitti occ", "middlebury all"]
+    assert "devkit" in report["kitti occ"]["convention"]
+    assert report["kitti occ"]["all"] == pytest.approx(100 / 96)  # holes filled with 10: one outlier
+    assert report["kitti occ"]["density"] == pytest.approx(75.0)
+    assert report["middlebury all"]["invalid"] == pytest.approx(25.0)
+    assert report["eth3d all"]["coverage"] == pytest.approx(75.0)
+    assert report["eth3d all"]["bad_2"] == pytest.approx(100 / 72)
+    table = _run("eval", tmp_path / "est.pfm", tmp_path / "gt.pfm", "--benchmark", "kitti")
+    assert table.exit_code == 0 and table.output.startswith("kitti occ  (KITTI 2015 devkit")

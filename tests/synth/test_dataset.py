@@ -50,7 +50,8 @@ gamma = {uniform = [0.8, 1.2]}
 blur_sigma = {choice = [0.0, 0.7]}
 jpeg_quality = {choice = [0, 90]}
 """
-MIDDLEBURY_FILES = {"im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "mask0nocc.png", "calib.txt",
+MIDDLEBURY_FILES = {"im0.png", "im1.png", "im1E.png", "im1L.png", "disp0GT.pfm", "disp1GT.pfm",
+                    "mask0nocc.png", "calib.txt",
                     "scene.json", "sample.json"}
 
 
@@ -215,17 +216,20 @@ def test_a_failing_sample_leaves_no_files_and_names_its_index_and_seed(tmp_path,
 def test_kitti_layout(config_file, tmp_path, renderer):
     out = tmp_path / "kitti"
     run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
-    for sub in ("image_2", "image_3", "disp_occ_0", "disp_noc_0"):
-        assert sorted(p.name for p in (out / sub).iterdir()) == ["000000_10.png",
-                                                                 "000001_10.png"]
+    subs = ("image_2", "image_3", "disp_occ_0", "disp_noc_0", "obj_map")
+    for sub in subs:
+        assert sorted(p.name for p in (out / "training" / sub).iterdir()) == ["000000_10.png",
+                                                                              "000001_10.png"]
+    assert sorted(p.name for p in (out / "training" / "calib_cam_to_cam").iterdir()) == [
+        "000000.txt", "000001.txt"]
     assert {p.name for p in (out / "000001").iterdir()} == {"scene.json", "sample.json"}
     files = render_from_manifest(out, 1, out=tmp_path / "one")
     assert sorted(str(f.relative_to(tmp_path / "one")) for f in files) == sorted(
-        [f"{s}/000001_10.png" for s in ("image_2", "image_3", "disp_occ_0", "disp_noc_0")]
-        + ["scene.json", "sample.json"])
-    for sub in ("image_2", "disp_noc_0"):
-        assert (out / sub / "000001_10.png").read_bytes() == \
-            (tmp_path / "one" / sub / "000001_10.png").read_bytes()
+        [f"training/{s}/000001_10.png" for s in subs]
+        + ["training/calib_cam_to_cam/000001.txt", "scene.json", "sample.json"])
+    for sub in ("image_2", "disp_noc_0", "obj_map"):
+        assert (out / "training" / sub / "000001_10.png").read_bytes() == \
+            (tmp_path / "one" / "training" / sub / "000001_10.png").read_bytes()
 
 
 # --------------------------------------------------------------------------- kill and resume

@@ -3,12 +3,18 @@
 Middlebury 2005/2006 (read): ``view1.png``, ``view5.png`` (left, right), ``disp1.png``,
 ``disp5.png`` (8-bit disparity codes, ``code / divisor`` pixels, 0 = unknown).
 
-Middlebury 2014 (read and write; see ``docs/formats.md``)::
+Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``)::
 
     im0.png, im1.png     left and right images (8-bit, RGB or grey)
-    disp0.pfm, disp1.pfm left and right ground-truth disparity, float32, inf = no ground truth
+    im1E.png, im1L.png   the right image under other exposure / lighting in real Middlebury 2014
+                         scenes; written as byte copies of im1.png (RAFT-Stereo lists them)
+    disp0GT.pfm          left ground-truth disparity, float32, inf = no ground truth (MiddEval3's
+                         name, what the SDK's runeval and RAFT-Stereo's Middlebury loader read)
+    disp1GT.pfm          right ground truth
     mask0nocc.png        occlusion mask of the left view: 255 visible, 128 occluded, 0 no GT
-    calib.txt            cam0, cam1, doffs, baseline (mm), width, height, ndisp, vmin, vmax
+    calib.txt            cam0, cam1, doffs, baseline (mm), width, height, ndisp, isint, vmin, vmax
+
+Scenes written before the MiddEval3 names (``disp0.pfm``, ``disp1.pfm``) are still read.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from matcher.io.png import encode_png, read_disparity, read_image
 from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
 __all__ = [
+    "GT_NAMES",
     "REQUIRED_CALIB_KEYS",
     "infer_middlebury_2005_divisor",
     "load_middlebury_2005",
@@ -35,8 +42,14 @@ __all__ = [
     "write_middlebury",
 ]
 
-#: Keys ``calib`` must provide; ``width``, ``height``, ``vmin``, ``vmax`` are filled in if absent.
+#: Keys ``calib`` must provide; ``width``, ``height``, ``isint``, ``vmin``, ``vmax`` are filled in
+#: if absent.
 REQUIRED_CALIB_KEYS: tuple[str, ...] = ("cam0", "cam1", "doffs", "baseline", "ndisp")
+
+#: Ground-truth file names, newest first: MiddEval3's ``disp0GT.pfm``, then the 2014 dataset's
+#: ``disp0.pfm`` (what stereoforge wrote before).
+GT_NAMES: dict[str, tuple[str, ...]] = {"left": ("disp0GT.pfm", "disp0.pfm"),
+                                        "right": ("disp1GT.pfm", "disp1.pfm")}
 
 _SIZE_DIVISORS = (("third", 3.0), ("half", 2.0), ("full", 1.0))
 
@@ -113,8 +126,8 @@ def load_middlebury_2005(scene_dir: str | os.PathLike[str], *, divisor: float | 
 def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
     """Load a Middlebury 2014 scene (the layout :func:`write_middlebury` writes).
 
-    Reads ``im0.png``, ``im1.png``, ``disp0.pfm``, ``calib.txt`` and, when present,
-    ``disp1.pfm`` and ``mask0nocc.png``.
+    Reads ``im0.png``, ``im1.png``, ``disp0GT.pfm`` (or, in scenes written before, ``disp0.pfm``),
+    ``calib.txt`` and, when present, ``disp1GT.pfm`` (``disp1.pfm``) and ``mask0nocc.png``.
 
     Returns
     -------
@@ -139,9 +152,9 @@ def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
     require_dir(scene_dir, "scene_dir")
     left = read_image(scene_dir / "im0.png")
     right = read_image(scene_dir / "im1.png")
-    disp_left = read_disparity(scene_dir / "disp0.pfm")
-    disp1 = scene_dir / "disp1.pfm"
-    disp_right = read_disparity(disp1) if disp1.is_file() else None
+    disp_left = read_disparity(_ground_truth_path(scene_dir, "left") or scene_dir / GT_NAMES["left"][0])
+    disp1 = _ground_truth_path(scene_dir, "right")
+    disp_right = None if disp1 is None else read_disparity(disp1)
     mask_path = scene_dir / "mask0nocc.png"
     mask = read_image(mask_path) if mask_path.is_file() else None
     if mask is not None and mask.ndim != 2:
@@ -150,6 +163,14 @@ def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
     calib = read_calib(scene_dir / "calib.txt")
     meta = {"dataset": "middlebury2014", "calib": calib, "scene_dir": str(scene_dir)}
     return StereoSample(left, right, disp_left, disp_right, scene_dir.name, meta, mask)
+
+
+def _ground_truth_path(scene_dir: Path, view: str) -> Path | None:
+    """The ground-truth file of ``view`` in ``scene_dir`` (MiddEval3 name first), or None."""
+    for name in GT_NAMES[view]:
+        if (scene_dir / name).is_file():
+            return scene_dir / name
+    return None
 
 
 def _complete_calib(calib: Mapping[str, object], shape: tuple[int, int], disp: np.ndarray) -> dict:
@@ -164,6 +185,7 @@ def _complete_calib(calib: Mapping[str, object], shape: tuple[int, int], disp: n
         if key in out and int(out[key]) != value:  # type: ignore[call-overload]
             raise ValueError(f"calib[{key!r}]: expected {value} (the image size), got {out[key]}")
         out[key] = value
+    out.setdefault("isint", 0)  # MiddEval3's runeval reads it; without it evaldisp's arguments shift
     if "vmin" not in out or "vmax" not in out:
         finite = disp[np.isfinite(disp)]
         if "vmin" not in out:
@@ -184,7 +206,10 @@ def write_middlebury(
     calib: Mapping[str, object],
     fsync: bool = True,
 ) -> list[Path]:
-    """Write one stereo pair as a Middlebury 2014 scene folder.
+    """Write one stereo pair as a MiddEval3 / Middlebury 2014 scene folder.
+
+    The folder is what the MiddEval3 SDK (``runeval``, ``evaldisp``, ``computemask``) and
+    RAFT-Stereo's Middlebury loader read as they are (see ``docs/formats.md``).
 
     Everything is validated and encoded before the first byte is written, and every file is
     written atomically, so an error leaves ``out_dir`` as it was.
@@ -199,21 +224,21 @@ def write_middlebury(
         Left ground truth in pixels, ``>= 0``; ``inf`` (or NaN, written as ``inf``) exactly where
         ``mask_left == 0``.
     disp_right : (H, W) float array or None
-        Right ground truth (``inf`` = none); ``disp1.pfm`` is skipped when None.
+        Right ground truth (``inf`` = none); ``disp1GT.pfm`` is skipped when None.
     mask_left : (H, W) uint8 array
         Codes 255 (visible in both views), 128 (occluded in the right view), 0 (no ground truth).
     calib : dict
         ``cam0``, ``cam1`` (3x3), ``doffs``, ``baseline`` (mm), ``ndisp``, plus any other keys
-        (``isint``, ...). ``width``/``height`` are filled from the images (and must match if
-        given); ``vmin``/``vmax`` default to the floor/ceil of the finite ``disp_left`` range.
+        (``dyavg``, ...). ``width``/``height`` are filled from the images (and must match if
+        given); ``isint`` defaults to 0 (float disparities); ``vmin``/``vmax`` default to the floor/ceil of the finite ``disp_left`` range.
     fsync : bool, default True
         ``fsync`` each file before renaming it into place.
 
     Returns
     -------
     list of pathlib.Path
-        The files written, in the order ``im0.png, im1.png, disp0.pfm, [disp1.pfm,]
-        mask0nocc.png, calib.txt``.
+        The files written, in the order ``im0.png, im1.png, im1E.png, im1L.png, disp0GT.pfm,
+        [disp1GT.pfm,] mask0nocc.png, calib.txt``.
 
     Examples
     --------
@@ -228,7 +253,7 @@ def write_middlebury(
     ...                              mask_left=mask, calib=cal)
     ...     s = load_middlebury_2014(out)
     >>> [f.name for f in files]
-    ['im0.png', 'im1.png', 'disp0.pfm', 'mask0nocc.png', 'calib.txt']
+    ['im0.png', 'im1.png', 'im1E.png', 'im1L.png', 'disp0GT.pfm', 'mask0nocc.png', 'calib.txt']
     >>> s.disp_left[0].tolist(), s.meta["calib"]["vmax"]
     ([1.0, 2.0, inf], 3)
     """
@@ -240,13 +265,16 @@ def write_middlebury(
     full_calib = _complete_calib(calib, shape, disp0)
 
     out = Path(out_dir)
+    im1 = encode_png(right)
     files: dict[Path, bytes] = {
         out / "im0.png": encode_png(left),
-        out / "im1.png": encode_png(right),
-        out / "disp0.pfm": encode_pfm(disp0),
+        out / "im1.png": im1,
+        out / "im1E.png": im1,  # no exposure / lighting variant rendered: documented copies
+        out / "im1L.png": im1,
+        out / "disp0GT.pfm": encode_pfm(disp0),
     }
     if disp1 is not None:
-        files[out / "disp1.pfm"] = encode_pfm(disp1)
+        files[out / "disp1GT.pfm"] = encode_pfm(disp1)
     files[out / "mask0nocc.png"] = encode_png(mask_left)
     files[out / "calib.txt"] = format_calib(full_calib).encode("ascii")
     out.mkdir(parents=True, exist_ok=True)

@@ -59,17 +59,38 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
               help="Occlusion mask PNG (255 = non-occluded); adds the nonocc region.")
 @click.option("--delta", default=3.0, show_default=True, type=float, help="PoBMP error threshold (px).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
-def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json) -> None:
+@click.option("--benchmark", "benchmark", default=None,
+              type=click.Choice(["middlebury", "kitti", "eth3d", "all"]),
+              help="Score as that benchmark's own code does (MiddEval3 evaldisp, KITTI 2015 devkit, "
+                   "ETH3D two-view), each figure labelled with its convention; 'all' prints the three.")
+@click.option("--obj-map", "obj_map", default=None, type=click.Path(dir_okay=False, path_type=Path),
+              help="KITTI obj_map PNG (0 = background): splits --benchmark kitti into bg/fg.")
+@click.option("--ndisp", default=None, type=int,
+              help="calib.txt's ndisp for --benchmark middlebury (estimates are clipped to it).")
+def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json, benchmark, obj_map,
+             ndisp) -> None:
     """Compare an estimated disparity map DISP with the ground truth GT (PFM or PNG)."""
-    from synth.jobs.evaluate import evaluate_files
+    from synth.jobs.evaluate import BENCHMARKS, evaluate_benchmarks, evaluate_files
 
     try:
-        report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
-                                mask=mask, delta=delta)
+        if benchmark is None:
+            report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
+                                    mask=mask, delta=delta)
+        else:
+            report = evaluate_benchmarks(
+                disp, gt, benchmarks=BENCHMARKS if benchmark == "all" else (benchmark,),
+                gt_divisor=gt_divisor, disp_divisor=disp_divisor, mask=mask, obj_map=obj_map,
+                ndisp=ndisp)
     except (ValueError, FileNotFoundError) as exc:
         fail(exc)
     if as_json:
         click.echo(json.dumps(report, indent=2, sort_keys=True))
+        return
+    if benchmark is not None:
+        for label, metrics in report.items():
+            click.echo(f"{label}  ({metrics['convention']})")
+            click.echo("  " + "  ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}"
+                                        for k, v in metrics.items() if k != "convention"))
         return
     keys = list(next(iter(report.values())).keys())
     click.echo("region   " + " ".join(f"{k:>9}" for k in keys))

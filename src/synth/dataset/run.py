@@ -8,7 +8,8 @@ Layout of a dataset directory ``out/``::
     000000/             sample 0: im0.png im1.png disp0.pfm disp1.pfm mask0nocc.png calib.txt
                         scene.json sample.json [preview.png]          (fmt="middlebury")
     000000/             scene.json sample.json; the images go to       (fmt="kitti")
-    image_2/ image_3/ disp_occ_0/ disp_noc_0/   000000_10.png ...
+    training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
+    training/calib_cam_to_cam/                                    000000.txt
     .lock               held (flock) by the run writing the directory
 
 Guarantees (see ``docs/datasets.md``):
@@ -49,7 +50,7 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
-from synth.export import FORMATS, prepare_output_dir, write_pair
+from synth.export import FORMATS, KITTI_ROOT, prepare_output_dir, write_pair
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
 from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
@@ -63,7 +64,6 @@ __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_s
 _FORMAT_VERSION = 2
 _SAMPLE_DIR = re.compile(r"^\d{6}$")
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
-_KITTI_DIRS = ("image_2", "image_3", "disp_occ_0", "disp_noc_0")
 _PHOTOMETRIC_STREAM = 3
 
 
@@ -177,11 +177,13 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
 def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
     """Move a finished sample into place; the final rename is the completion marker."""
     if fmt == "kitti":
-        for sub in _KITTI_DIRS:
-            (out / sub).mkdir(exist_ok=True)
-            for f in sorted((tmp / sub).iterdir()):
-                os.replace(f, out / sub / f.name)
-            (tmp / sub).rmdir()
+        shared = tmp / KITTI_ROOT
+        for sub in sorted(shared.iterdir()):
+            (out / KITTI_ROOT / sub.name).mkdir(parents=True, exist_ok=True)
+            for f in sorted(sub.iterdir()):
+                os.replace(f, out / KITTI_ROOT / sub.name / f.name)
+            sub.rmdir()
+        shared.rmdir()
     final = out / f"{index:06d}"
     try:
         os.rename(tmp, final)
@@ -422,7 +424,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
 
     The configuration comes from ``dataset_dir/dataset.json``; the sample need not be complete
     (this is how a failed sample is reproduced). ``out`` receives the sample's files as in the
-    dataset (Middlebury: ``im0.png ...``; KITTI: ``image_2/NNNNNN_10.png ...``) plus
+    dataset (Middlebury: ``im0.png ...``; KITTI: ``training/image_2/NNNNNN_10.png ...``) plus
     ``scene.json`` and ``sample.json``. A non-empty ``out`` is refused unless ``overwrite``.
 
     Returns
@@ -442,7 +444,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     >>> _ = run_dataset("planes", out=f"{tmp}/planes", count=2, progress=False)
     >>> files = render_from_manifest(f"{tmp}/planes", 1, out=f"{tmp}/planes-1")
     >>> sorted(f.name for f in files)[:3]
-    ['calib.txt', 'disp0.pfm', 'disp1.pfm']
+    ['calib.txt', 'disp0GT.pfm', 'disp1GT.pfm']
     >>> from pathlib import Path
     >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "000001", "im0.png").read_bytes()
     True

@@ -6,9 +6,73 @@ import dataclasses
 from pathlib import Path
 
 from matcher.io import read_disparity, read_image
-from matcher.metrics import evaluate
+from matcher.metrics import eth3d_two_view, evaluate, kitti_2015, middlebury_v3
 
-__all__ = ["evaluate_files"]
+__all__ = ["BENCHMARKS", "CONVENTIONS", "evaluate_benchmarks", "evaluate_files"]
+
+#: ``--benchmark`` choices.
+BENCHMARKS = ("middlebury", "kitti", "eth3d")
+#: What each figure follows, printed beside it by ``stereoforge eval``.
+CONVENTIONS = {
+    "middlebury": "MiddEval3 SDK 1.6 evaldisp: bad excludes holes, totbad = bad + invalid, "
+                  "avgerr/rms/A* over valid estimates, clipped to [0, ndisp]",
+    "kitti": "KITTI 2015 devkit: holes interpolated (interpolateBackground) first; D1 = > 3 px "
+             "and > 5 %; *_est over estimated pixels only; density in %",
+    "eth3d": "ETH3D two-view: bad/avgerr/rms/A* over estimated pixels; coverage = estimated %",
+}
+
+
+def _grey(path: str | Path):
+    image = read_image(path)
+    return image[..., 0] if image.ndim == 3 else image
+
+
+def evaluate_benchmarks(
+    disp: str | Path,
+    gt: str | Path,
+    *,
+    benchmarks: tuple[str, ...] = BENCHMARKS,
+    gt_divisor: float | None = None,
+    disp_divisor: float | None = None,
+    mask: str | Path | None = None,
+    obj_map: str | Path | None = None,
+    ndisp: int | None = None,
+    isint: bool = False,
+) -> dict[str, dict]:
+    """Metrics of ``disp`` against ``gt`` as each benchmark's own code defines them.
+
+    Returns
+    -------
+    dict
+        ``{"<benchmark> <region>": {"convention": ..., <fields>}}``; ``nonocc``/``noc`` regions
+        need ``mask`` (255 = visible in both views); KITTI's bg/fg split needs ``obj_map``.
+    """
+    for name in benchmarks:
+        if name not in BENCHMARKS:
+            raise ValueError(f"--benchmark: expected one of {', '.join(BENCHMARKS)}, got {name!r}")
+    estimate = read_disparity(disp, divisor=disp_divisor)
+    truth = read_disparity(gt, divisor=gt_divisor)
+    occ = None if mask is None else _grey(mask)
+    regions = ("all",) if occ is None else ("all", "nonocc")
+    report: dict[str, dict] = {}
+    for name in benchmarks:
+        note = {"convention": CONVENTIONS[name]}
+        if name == "middlebury":
+            for region in regions:
+                m = middlebury_v3(estimate, truth, occlusion_mask=occ, region=region, maxdisp=ndisp,
+                                  rounddisp=isint)
+                report[f"middlebury {region}"] = note | dataclasses.asdict(m)
+        elif name == "eth3d":
+            for region in regions:
+                m = eth3d_two_view(estimate, truth, occlusion_mask=occ, region=region)
+                report[f"eth3d {region}"] = note | dataclasses.asdict(m)
+        else:
+            k = kitti_2015(estimate, truth, occlusion_mask=occ,
+                           obj_map=None if obj_map is None else _grey(obj_map))
+            report["kitti occ"] = note | dataclasses.asdict(k.occ)
+            if k.noc is not None:
+                report["kitti noc"] = note | dataclasses.asdict(k.noc)
+    return report
 
 
 def evaluate_files(

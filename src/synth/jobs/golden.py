@@ -6,7 +6,7 @@ the *stored* images. :func:`golden_check` verifies two things separately:
 
 1. **Matchers, exactly.** Each method is run on the stored ``im0.png``/``im1.png``; its
    disparity must equal the stored PFM bit for bit (``inf`` at the same pixels) and its
-   metrics (computed against the stored ``disp0.pfm`` and ``mask0nocc.png``) must equal the
+   metrics (computed against the stored ``disp0GT.pfm`` and ``mask0nocc.png``) must equal the
    stored JSON exactly. Rendering cannot affect this part.
 2. **Rendering, within tolerances** that survive Mesa versions (a fresh render of each scene
    against the stored one, see :data:`TOLERANCES`):
@@ -79,7 +79,7 @@ GOLDEN_RIG = StereoRig.default(160, 120, baseline=0.2)
 MAX_DISPARITY = 24
 DELTA = 3.0
 _FORMAT = 1
-_SCENE_FILES = ("im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "mask0nocc.png", "calib.txt",
+_SCENE_FILES = ("im0.png", "im1.png", "disp0GT.pfm", "disp1GT.pfm", "mask0nocc.png", "calib.txt",
                 "scene.json")
 _VERSION_DISTS = ("stereoforge", "numpy", "opencv-python-headless", "numba", "scikit-image",
                   "scipy", "trimesh", "PyOpenGL")
@@ -202,7 +202,7 @@ def _readme() -> bytes:
         f"Scenes ({GOLDEN_RIG.width} x {GOLDEN_RIG.height}, fx = {GOLDEN_RIG.fx:g} px, "
         f"baseline = {GOLDEN_RIG.baseline:g} m): {scenes}.\n"
         f"Matcher cases (max_disparity = {MAX_DISPARITY}, delta = {DELTA:g}): {cases}.\n\n"
-        "- `<scene>/` Middlebury 2014 layout (`im0.png`, `im1.png`, `disp0.pfm`, `disp1.pfm`, "
+        "- `<scene>/` MiddEval3 layout (`im0.png`, `im1.png`, `disp0GT.pfm`, `disp1GT.pfm`, "
         "`mask0nocc.png`, `calib.txt`) and `scene.json`\n"
         "- `<scene>/expected/<method>-w<window>.pfm` each method's disparity on the stored "
         "images; `expected/metrics.json` its metrics (`all`, `nonocc`) and operation counts\n"
