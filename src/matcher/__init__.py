@@ -15,6 +15,16 @@ Layout (each module imports only the ones above it in this list)::
 
 from matcher.adaptive import RIGHT_WINDOWS, AdaptiveResult, match_awct, match_awsct, select_windows
 from matcher.census import census_transform, hamming
+from matcher.benchmarks import (
+    Eth3dMetrics,
+    Kitti2015Metrics,
+    KittiD1,
+    MiddleburyV3Metrics,
+    eth3d_two_view,
+    kitti_2015,
+    kitti_interpolate_background,
+    middlebury_v3,
+)
 from matcher.cost import AGG_SENTINEL, COST_SENTINEL, aggregate_cost, cost_volume
 from matcher.cthw import HH_THRESHOLD, CTHWResult, hh_edges, match_cthw, modify_disparity
 from matcher.edges import CANNY_HIGH, CANNY_IMPLS, CANNY_LOW, CANNY_SIGMA, canny_edges
@@ -26,6 +36,14 @@ from matcher.result import MatchResult, OpCounts
 from matcher.select import winner_takes_all
 
 __all__ = [
+    "Eth3dMetrics",
+    "Kitti2015Metrics",
+    "KittiD1",
+    "MiddleburyV3Metrics",
+    "eth3d_two_view",
+    "kitti_2015",
+    "kitti_interpolate_background",
+    "middlebury_v3",
     "AGG_SENTINEL",
     "AdaptiveResult",
     "CANNY_HIGH",

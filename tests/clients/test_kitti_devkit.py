@@ -1,6 +1,6 @@
 """The KITTI 2015 devkit's ``evaluate_scene_flow`` (built from ../shared/clients with the edits
 of its SOURCES.txt) evaluates a folder written by ``write_kitti`` as it is, and its D1 figures
-equal ``matcher.metrics.kitti_2015`` on it."""
+equal ``matcher.benchmarks.kitti_2015`` on it."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from matcher.io import (
     read_kitti_calib,
     write_kitti,
 )
-from matcher.metrics import kitti_2015
+from matcher.benchmarks import kitti_2015
 
 H, W = 40, 96
 

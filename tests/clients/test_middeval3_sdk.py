@@ -1,6 +1,6 @@
 """The MiddEval3 SDK 1.6 (``runeval``, ``evaldisp``, ``computemask``, built from
 ../shared/clients) reads scene folders written by ``write_middlebury`` as they are, and its figures
-equal ``matcher.metrics.middlebury_v3`` on them."""
+equal ``matcher.benchmarks.middlebury_v3`` on them."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from matcher.io import read_calib, read_image, write_middlebury, write_pfm
-from matcher.metrics import middlebury_v3
+from matcher.benchmarks import middlebury_v3
 from synth.pair import occlusion_mask
 
 H, W = 48, 64

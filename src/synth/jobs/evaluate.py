@@ -6,7 +6,7 @@ import dataclasses
 from pathlib import Path
 
 from matcher.io import read_disparity, read_image
-from matcher.metrics import eth3d_two_view, evaluate, kitti_2015, middlebury_v3
+from matcher import eth3d_two_view, evaluate, kitti_2015, middlebury_v3
 
 __all__ = ["BENCHMARKS", "CONVENTIONS", "evaluate_benchmarks", "evaluate_files"]
 
