@@ -34,6 +34,12 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
         ``fsync`` the file before the rename, so that after a crash the destination holds either
         the old or the complete new content.
 
+    Raises
+    ------
+    OSError
+        If the write fails (no space left, read-only, ...); it names ``path``, the temporary
+        file is gone and a previous ``path`` is untouched.
+
     Returns
     -------
     pathlib.Path
@@ -57,11 +63,14 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
             if fsync:
                 os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
+            # a failed write (ENOSPC, EIO) names no file: name the destination
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
     return path
 

@@ -35,11 +35,8 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
         n_threads = int(threads)
     else:
         fail(ValueError(f"--threads must be 'auto' or an int >= 0, got {threads!r}"))
-    try:
-        rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend,
-                            threads=n_threads, progress=True)
-    except ValueError as exc:
-        fail(exc)
+    rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend,
+                        threads=n_threads, progress=True)
     click.echo(write_table(rows, Path(out), "render"))
 
 
@@ -94,9 +91,6 @@ def bench_dataset_cmd(out, count, configs, workers_text, backend) -> None:
     if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
         fail(ValueError(f"--workers must be positive ints separated by commas, got "
                          f"{workers_text!r}"))
-    try:
-        rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
-                             backend=backend, progress=True)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
+                         backend=backend, progress=True)
     click.echo(write_table(rows, Path(out), "dataset"))

@@ -32,17 +32,14 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
     from matcher import match
     from matcher.io import read_image, write_pfm
 
-    try:
-        left_img, right_img = read_image(left), read_image(right)
-        t0 = time.perf_counter()
-        result = match(left_img, right_img, method=method, window=window, max_disparity=max_disp,
-                       lr_check=lr_check, subpixel=subpixel, aggregate=aggregate)
-        seconds = time.perf_counter() - t0
-        if out.suffix.lower() != ".pfm":
-            raise ValueError(f"--out must be a .pfm file (got {out.name})")
-        write_pfm(out, result.disparity)
-    except (ValueError, FileNotFoundError, TypeError) as exc:
-        fail(exc)
+    if out.suffix.lower() != ".pfm":
+        fail(ValueError(f"--out must be a .pfm file (got {out.name})"))
+    left_img, right_img = read_image(left), read_image(right)
+    t0 = time.perf_counter()
+    result = match(left_img, right_img, method=method, window=window, max_disparity=max_disp,
+                   lr_check=lr_check, subpixel=subpixel, aggregate=aggregate)
+    seconds = time.perf_counter() - t0
+    write_pfm(out, result.disparity)  # atomic: a failure leaves a previous file intact
     invalid = 100.0 * float((~(result.disparity < float("inf"))).mean())
     click.echo(f"{method} {window}x{window} D={max_disp}: {seconds * 1e3:.1f} ms, "
                f"invalid {invalid:.2f} %, wrote {out}")
@@ -64,11 +61,8 @@ def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json) -> None:
     """Compare an estimated disparity map DISP with the ground truth GT (PFM or PNG)."""
     from synth.jobs.evaluate import evaluate_files
 
-    try:
-        report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
-                                mask=mask, delta=delta)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
+                            mask=mask, delta=delta)
     if as_json:
         click.echo(json.dumps(report, indent=2, sort_keys=True))
         return
