@@ -30,6 +30,7 @@ from stereoforge.validation import (
     check_keys,
     check_real,
     check_sequence,
+    check_text,
     check_type,
     fail,
 )
@@ -432,9 +433,27 @@ def dumps_json(spec: SceneSpec) -> str:
     return json.dumps(scene_to_dict(spec), indent=2) + "\n"
 
 
-def loads_json(text: str) -> SceneSpec:
-    """Scene from JSON text written by :func:`dumps_json`."""
-    return scene_from_dict(json.loads(text))
+def _parse_text(loads: Any, text: Any, kind: str, where: str) -> Any:
+    """``loads(text)`` with every failure of the parser as a :class:`SceneError` at ``where``."""
+    check_type(text, "text", str, expected=f"the {kind} text of a scene (str)")
+    try:
+        return loads(text)
+    except RecursionError:
+        raise SceneError(f"{where}: {kind} nested too deeply for this parser; a scene is a "
+                         "few levels deep (scene, objects, pose)") from None
+    except ValueError as exc:  # JSONDecodeError, TOMLDecodeError, an int of > 4300 digits
+        raise SceneError(f"{where}: invalid {kind}: {exc}") from None
+
+
+def loads_json(text: str, *, source: str = "scene") -> SceneSpec:
+    """Scene from JSON text written by :func:`dumps_json`.
+
+    Raises
+    ------
+    SceneError
+        On invalid JSON (``source`` names it) or an invalid scene.
+    """
+    return scene_from_dict(_parse_text(json.loads, text, "JSON", source))
 
 
 def dumps_toml(spec: SceneSpec) -> str:
@@ -442,9 +461,15 @@ def dumps_toml(spec: SceneSpec) -> str:
     return tomli_w.dumps(scene_to_dict(spec))
 
 
-def loads_toml(text: str) -> SceneSpec:
-    """Scene from TOML text written by :func:`dumps_toml`."""
-    return scene_from_dict(tomllib.loads(text))
+def loads_toml(text: str, *, source: str = "scene") -> SceneSpec:
+    """Scene from TOML text written by :func:`dumps_toml`.
+
+    Raises
+    ------
+    SceneError
+        On invalid TOML (``source`` names it) or an invalid scene.
+    """
+    return scene_from_dict(_parse_text(tomllib.loads, text, "TOML", source))
 
 
 _FORMATS = {".json": (dumps_json, loads_json), ".toml": (dumps_toml, loads_toml)}
@@ -476,4 +501,11 @@ def load_scene(path: str | Path) -> SceneSpec:
     """Read a scene written by :func:`dump_scene` (format by suffix: ``.toml`` or ``.json``)."""
     path = Path(path)
     _, loads = _format(path)
-    return loads(path.read_text(encoding="utf-8"))
+    text = check_text(path.read_bytes(), str(path), fix="save the scene file as UTF-8",
+                      error=SceneError)
+    try:
+        return loads(text, source=str(path))
+    except StereoforgeError as exc:  # the same class, told which file
+        if str(exc).startswith(str(path)):
+            raise
+        raise type(exc)(f"{path}: {exc}") from None
