@@ -37,6 +37,7 @@ from stereoforge.validation import (
 
 __all__ = [
     "TEXTURE_KINDS",
+    "MAX_EXTENT",
     "OBJECT_KINDS",
     "TextureSpec",
     "Pose",
@@ -65,6 +66,12 @@ OBJECT_KINDS: dict[str, tuple[str, ...]] = {
     "moebius": ("radius", "width"),
     "terrain": ("width", "depth", "amplitude"),
 }
+
+#: Bound of every length and coordinate of a scene, metres: a size is in ``(0, MAX_EXTENT]`` and
+#: each translation component in ``[-MAX_EXTENT, MAX_EXTENT]``. A kilometre-wide terrain is
+#: 1e3; beyond 1e6 float32 vertices lose centimetres and GL clips or drops the geometry
+#: (a plane of size 1e300 rendered as an empty image).
+MAX_EXTENT = 1e6
 
 _FORMAT_VERSION = 1
 _MAX_SEED = 2**63  # TOML integers are signed 64-bit
@@ -149,7 +156,8 @@ class Pose:
     Parameters
     ----------
     translation : (3,) tuple of float
-        Position of the local origin in metres.
+        Position of the local origin in metres, each component in
+        ``[-MAX_EXTENT, MAX_EXTENT]`` (1e6 m).
     rotation_deg : (3,) tuple of float
         Extrinsic X, Y, Z Euler angles in degrees.
 
@@ -163,7 +171,8 @@ class Pose:
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        _set(self, "translation", _vec(self.translation, "Pose.translation", 3))
+        _set(self, "translation", _vec(self.translation, "Pose.translation", 3, lo=-MAX_EXTENT,
+                                       hi=MAX_EXTENT))
         _set(self, "rotation_deg", _vec(self.rotation_deg, "Pose.rotation_deg", 3))
 
     def rotation(self) -> np.ndarray:
@@ -207,7 +216,7 @@ class ObjectSpec:
     pose : Pose
         Local-to-world placement.
     size : tuple of float
-        Dimensions in metres, all > 0 (terrain amplitude >= 0).
+        Dimensions in metres, all in ``(0, MAX_EXTENT]`` (terrain amplitude may be 0).
     texture : TextureSpec
         Surface texture.
     name : str
@@ -242,7 +251,8 @@ class ObjectSpec:
         size = _vec(self.size, f"ObjectSpec.size of a {kind} {labels}", len(labels))
         for i, (label, value) in enumerate(zip(labels, size)):
             check_real(value, f"ObjectSpec.size[{i}] ({label} of a {kind})", lo=0.0,
-                       lo_open=label != "amplitude")
+                       lo_open=label != "amplitude", hi=MAX_EXTENT,
+                       fix=f"sizes are metres, at most MAX_EXTENT = {MAX_EXTENT:g}")
         if kind == "moebius" and not size[1] < 2 * size[0]:
             raise fail("ObjectSpec.size of a moebius ('radius', 'width')", "width < 2 * radius",
                        repr(size), fix="narrow the strip: a wider one self-intersects")
