@@ -54,7 +54,10 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
     (b'hi', ['x.txt'])
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:  # name the destination, not the temporary name
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
     try:
         os.fchmod(fd, _default_mode())
         with os.fdopen(fd, "wb") as f:
@@ -68,7 +71,7 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
             os.unlink(tmp)
         except FileNotFoundError:
             pass
-        if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
+        if isinstance(exc, OSError) and exc.filename in (None, tmp) and exc.errno is not None:
             # a failed write (ENOSPC, EIO) names no file: name the destination
             raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise

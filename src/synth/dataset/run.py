@@ -45,7 +45,7 @@ from tqdm import tqdm
 
 from matcher.io import atomic_write_bytes
 from synth._json import read_json_object
-from stereoforge.errors import DatasetError, StereoforgeError
+from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
 from synth.export import FORMATS, prepare_output_dir, write_pair
@@ -458,7 +458,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     header = read_json_object(path, what="dataset header", keys=_HEADER_KEYS, fix=_MODIFIED)
     cfg = config_from_dict(header["config"], source=str(path))
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
-        raise ValueError(f"index must be an int in [0, 999999], got {index!r}")
+        raise ParameterError(f"index must be an int in [0, 999999], got {index!r}")
     record = root / f"{index:06d}" / "sample.json"
     seed = sample_seed(cfg.seed, index)
     if record.is_file() and read_json_object(record, what="sample record", keys={"seed": int},
