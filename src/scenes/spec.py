@@ -33,12 +33,14 @@ from stereoforge.validation import (
     check_keys,
     check_real,
     check_sequence,
+    check_text,
     check_type,
     fail,
 )
 
 __all__ = [
     "TEXTURE_KINDS",
+    "MAX_EXTENT",
     "OBJECT_KINDS",
     "TextureSpec",
     "Pose",
@@ -67,6 +69,12 @@ OBJECT_KINDS: dict[str, tuple[str, ...]] = {
     "moebius": ("radius", "width"),
     "terrain": ("width", "depth", "amplitude"),
 }
+
+#: Bound of every length and coordinate of a scene, metres: a size is in ``(0, MAX_EXTENT]`` and
+#: each translation component in ``[-MAX_EXTENT, MAX_EXTENT]``. A kilometre-wide terrain is
+#: 1e3; beyond 1e6 float32 vertices lose centimetres and GL clips or drops the geometry
+#: (a plane of size 1e300 rendered as an empty image).
+MAX_EXTENT = 1e6
 
 _FORMAT_VERSION = 1
 _MAX_SEED = 2**63  # TOML integers are signed 64-bit
@@ -151,7 +159,8 @@ class Pose:
     Parameters
     ----------
     translation : (3,) tuple of float
-        Position of the local origin in metres.
+        Position of the local origin in metres, each component in
+        ``[-MAX_EXTENT, MAX_EXTENT]`` (1e6 m).
     rotation_deg : (3,) tuple of float
         Extrinsic X, Y, Z Euler angles in degrees.
 
@@ -165,7 +174,8 @@ class Pose:
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        _set(self, "translation", _vec(self.translation, "Pose.translation", 3))
+        _set(self, "translation", _vec(self.translation, "Pose.translation", 3, lo=-MAX_EXTENT,
+                                       hi=MAX_EXTENT))
         _set(self, "rotation_deg", _vec(self.rotation_deg, "Pose.rotation_deg", 3))
 
     def rotation(self) -> np.ndarray:
@@ -209,7 +219,7 @@ class ObjectSpec:
     pose : Pose
         Local-to-world placement.
     size : tuple of float
-        Dimensions in metres, all > 0 (terrain amplitude >= 0).
+        Dimensions in metres, all in ``(0, MAX_EXTENT]`` (terrain amplitude may be 0).
     texture : TextureSpec
         Surface texture.
     name : str
@@ -244,7 +254,8 @@ class ObjectSpec:
         size = _vec(self.size, f"ObjectSpec.size of a {kind} {labels}", len(labels))
         for i, (label, value) in enumerate(zip(labels, size)):
             check_real(value, f"ObjectSpec.size[{i}] ({label} of a {kind})", lo=0.0,
-                       lo_open=label != "amplitude")
+                       lo_open=label != "amplitude", hi=MAX_EXTENT,
+                       fix=f"sizes are metres, at most MAX_EXTENT = {MAX_EXTENT:g}")
         if kind == "moebius" and not size[1] < 2 * size[0]:
             raise fail("ObjectSpec.size of a moebius ('radius', 'width')", "width < 2 * radius",
                        repr(size), fix="narrow the strip: a wider one self-intersects")
@@ -435,9 +446,27 @@ def dumps_json(spec: SceneSpec) -> str:
     return json.dumps(scene_to_dict(spec), indent=2) + "\n"
 
 
-def loads_json(text: str) -> SceneSpec:
-    """Scene from JSON text written by :func:`dumps_json`."""
-    return scene_from_dict(json.loads(text))
+def _parse_text(loads: Any, text: Any, kind: str, where: str) -> Any:
+    """``loads(text)`` with every failure of the parser as a :class:`SceneError` at ``where``."""
+    check_type(text, "text", str, expected=f"the {kind} text of a scene (str)")
+    try:
+        return loads(text)
+    except RecursionError:
+        raise SceneError(f"{where}: {kind} nested too deeply for this parser; a scene is a "
+                         "few levels deep (scene, objects, pose)") from None
+    except ValueError as exc:  # JSONDecodeError, TOMLDecodeError, an int of > 4300 digits
+        raise SceneError(f"{where}: invalid {kind}: {exc}") from None
+
+
+def loads_json(text: str, *, source: str = "scene") -> SceneSpec:
+    """Scene from JSON text written by :func:`dumps_json`.
+
+    Raises
+    ------
+    SceneError
+        On invalid JSON (``source`` names it) or an invalid scene.
+    """
+    return scene_from_dict(_parse_text(json.loads, text, "JSON", source))
 
 
 def dumps_toml(spec: SceneSpec) -> str:
@@ -445,9 +474,15 @@ def dumps_toml(spec: SceneSpec) -> str:
     return tomli_w.dumps(scene_to_dict(spec))
 
 
-def loads_toml(text: str) -> SceneSpec:
-    """Scene from TOML text written by :func:`dumps_toml`."""
-    return scene_from_dict(tomllib.loads(text))
+def loads_toml(text: str, *, source: str = "scene") -> SceneSpec:
+    """Scene from TOML text written by :func:`dumps_toml`.
+
+    Raises
+    ------
+    SceneError
+        On invalid TOML (``source`` names it) or an invalid scene.
+    """
+    return scene_from_dict(_parse_text(tomllib.loads, text, "TOML", source))
 
 
 _FORMATS = {".json": (dumps_json, loads_json), ".toml": (dumps_toml, loads_toml)}
@@ -479,4 +514,11 @@ def load_scene(path: str | Path) -> SceneSpec:
     """Read a scene written by :func:`dump_scene` (format by suffix: ``.toml`` or ``.json``)."""
     path = Path(path)
     _, loads = _format(path)
-    return loads(path.read_text(encoding="utf-8"))
+    text = check_text(path.read_bytes(), str(path), fix="save the scene file as UTF-8",
+                      error=SceneError)
+    try:
+        return loads(text, source=str(path))
+    except StereoforgeError as exc:  # the same class, told which file
+        if str(exc).startswith(str(path)):
+            raise
+        raise type(exc)(f"{path}: {exc}") from None

@@ -20,6 +20,7 @@ import math
 from hypothesis import strategies as st
 
 from scenes.spec import (
+    MAX_EXTENT,
     OBJECT_KINDS,
     TEXTURE_KINDS,
     LightSpec,
@@ -33,7 +34,7 @@ __all__ = ["texture_specs", "poses", "sizes", "object_specs", "light_specs", "sc
 
 _finite = st.floats(allow_nan=False, allow_infinity=False)
 _unit = st.floats(min_value=0.0, max_value=1.0)
-_positive = st.floats(min_value=1e-12, max_value=1e6)
+_positive = st.floats(min_value=1e-12, max_value=MAX_EXTENT)
 _seed = st.integers(min_value=0, max_value=2**63 - 1)
 
 
@@ -49,8 +50,10 @@ def texture_specs(*, kinds: tuple[str, ...] = TEXTURE_KINDS) -> st.SearchStrateg
 
 
 def poses() -> st.SearchStrategy[Pose]:
-    """:class:`Pose` values with any finite translation and rotation."""
-    return st.builds(Pose, translation=_vec3(_finite), rotation_deg=_vec3(_finite))
+    """:class:`Pose` values with any translation within :data:`~scenes.spec.MAX_EXTENT` and any
+    finite rotation."""
+    return st.builds(Pose, translation=_vec3(st.floats(-MAX_EXTENT, MAX_EXTENT)),
+                     rotation_deg=_vec3(_finite))
 
 
 @st.composite
@@ -60,7 +63,7 @@ def sizes(draw: st.DrawFn, kind: str) -> tuple[float, ...]:
     if kind == "terrain":
         out[2] = draw(st.floats(min_value=0.0, max_value=1e3))
     if kind == "moebius":
-        out[1] = out[0] * draw(st.floats(min_value=1e-3, max_value=1.99))
+        out[1] = min(out[0] * draw(st.floats(min_value=1e-3, max_value=1.99)), MAX_EXTENT)
     return tuple(out)
 
 

@@ -58,9 +58,19 @@ __all__ = [
     "check_shape",
     "check_finite",
     "check_keys",
+    "check_text",
 ]
 
 _MAX_REPR = 80
+
+
+def _short(value: object) -> str:
+    """``repr(value)``, cut to :data:`_MAX_REPR` characters."""
+    try:
+        text = repr(value)
+    except ValueError:  # an int of more digits than Python prints (sys.get_int_max_str_digits)
+        text = f"<{value.bit_length()}-bit integer>" if isinstance(value, int) else "<?>"
+    return text if len(text) <= _MAX_REPR else text[:_MAX_REPR - 3] + "..."
 
 
 def describe(value: object) -> str:
@@ -73,10 +83,7 @@ def describe(value: object) -> str:
     """
     if isinstance(value, np.ndarray):
         return f"array of shape {value.shape} and dtype {value.dtype}"
-    text = repr(value)
-    if len(text) > _MAX_REPR:
-        text = text[:_MAX_REPR - 3] + "..."
-    return f"{type(value).__name__} {text}"
+    return f"{type(value).__name__} {_short(value)}"
 
 
 def range_text(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
@@ -186,9 +193,12 @@ def _check_number(value: Any, name: str, what: str, accepts: Callable[[Any], boo
     if not accepts(value):
         raise fail(name, expected, describe(value), fix=fix, where=where,
                    error=ParameterTypeError)
-    v = convert(value)
+    try:
+        v = convert(value)
+    except OverflowError:  # an integer beyond the float range (10**400 read from JSON)
+        raise fail(name, expected, describe(value), fix=fix, where=where) from None
     if not (valid(v) and _in_range(v, lo, hi, lo_open, hi_open)):
-        raise fail(name, expected, repr(v), fix=fix, where=where)
+        raise fail(name, expected, _short(v), fix=fix, where=where)
     return v
 
 
@@ -418,3 +428,25 @@ def check_keys(mapping: Mapping[Any, Any], name: str, allowed: Iterable[Any], *,
             raise error(f"{head}unknown key {key!r} in {name}; valid keys: {allowed!r}"
                         + (f"; {tail}" if tail else ""))
     return mapping
+
+
+def check_text(data: bytes, name: str, *, encoding: str = "utf-8", fix: str | None = None,
+               error: type[StereoforgeError] = ParameterError) -> str:
+    """The bytes of a text file, decoded; else an ``error`` naming ``name`` and the first bad
+    byte.
+
+    Examples
+    --------
+    >>> check_text(b"a = 1", "my.toml")
+    'a = 1'
+    >>> check_text(b"a = \\xff", "my.toml", fix="save it as UTF-8")
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.ParameterError: my.toml: not utf-8 text (byte 4 is 0xff); save it as UTF-8
+    """
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        tail = f"; {fix}" if fix else ""
+        raise error(f"{name}: not {encoding} text (byte {exc.start} is "
+                    f"{data[exc.start]:#04x}){tail}") from None

@@ -22,9 +22,9 @@ from typing import Any
 
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key, check_table
-from stereoforge.validation import describe, fail
+from stereoforge.validation import check_text, describe, fail
 
-__all__ = ["key_lines", "line_of", "TomlSource"]
+__all__ = ["key_lines", "line_of", "TomlSource", "parse_toml", "read_toml_text"]
 
 Path = tuple[str | int, ...]
 _BARE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-")
@@ -253,6 +253,35 @@ def line_of(text: str, *path: str | int) -> int | None:
     return None
 
 
+def parse_toml(text: Any, source: str, error: type[ConfigError] = ConfigError) -> dict[str, Any]:
+    """``tomllib.loads(text)``, every failure of the parser raised as ``error`` naming ``source``.
+
+    Examples
+    --------
+    >>> parse_toml("a = [[[1]]]", "x.toml")
+    {'a': [[[1]]]}
+    >>> parse_toml("a = " + "[" * 50000, "x.toml")
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.ConfigError: x.toml: invalid TOML: nested too deeply for this parser
+    """
+    if not isinstance(text, str):
+        raise error(f"{source}: expected TOML text (str), got {type(text).__name__}")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{source}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise error(f"{source}: invalid TOML: nested too deeply for this parser") from None
+
+
+def read_toml_text(path: Any, error: type[ConfigError] = ConfigError) -> str:
+    """The text of the TOML file ``path``; a file that is not UTF-8 raises ``error``."""
+    with open(path, "rb") as f:
+        data = f.read()
+    return check_text(data, str(path), fix="TOML files are UTF-8: save it as UTF-8", error=error)
+
+
 class TomlSource:
     """TOML text and its file name: the ``file:line`` of every error about it.
 
@@ -274,7 +303,10 @@ class TomlSource:
     def where(self, *path: str | int) -> str:
         """``"file:line"`` of ``path`` (its nearest known enclosing table), else ``"file"``."""
         if self._lines is None:
-            self._lines = key_lines(self.text) if self.text else {}
+            try:
+                self._lines = key_lines(self.text) if self.text else {}
+            except RecursionError:  # nested deeper than the scanner follows: name the file
+                self._lines = {}
         for k in range(len(path), 0, -1):
             if path[:k] in self._lines:
                 return f"{self.source}:{self._lines[path[:k]]}"

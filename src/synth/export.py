@@ -5,9 +5,16 @@ This is the library function behind ``stereoforge render`` (and the demo); the C
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import functools
 import json
 import math
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Iterator
 from collections.abc import Mapping
 from importlib import metadata
 from pathlib import Path
@@ -21,8 +28,9 @@ from synth.formats import FORMATS
 from synth.pair import StereoPair
 from synth.preview import preview_image
 
-__all__ = ["FORMATS", "KITTI_ROOT", "OutputDirError", "resolve_scene", "prepare_output_dir", "calib_for",
-           "kitti_calib_for", "foreground_map", "write_pair"]
+__all__ = ["FORMATS", "KITTI_ROOT", "OutputDirError", "resolve_scene", "prepare_output_dir",
+           "staged_output_dir", "calib_for", "kitti_calib_for", "foreground_map", "write_pair",
+           "save_pair"]
 
 #: Folder of a KITTI output that holds ``image_2/`` ... (KITTI's and RAFT-Stereo's ``training/``).
 KITTI_ROOT = "training"
@@ -74,6 +82,17 @@ def prepare_output_dir(out: str | Path, *, overwrite: bool = False) -> Path:
     True
     """
     out = Path(out)
+    _check_output_dir(out, overwrite)
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def _check_output_dir(out: Path, overwrite: bool) -> None:
+    for parent in out.parents:  # the nearest existing ancestor must be a directory
+        if parent.exists():
+            if not parent.is_dir():
+                raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(parent))
+            break
     if out.exists() and not out.is_dir():
         raise OutputDirError(f"output path {out} exists and is not a directory; choose another --out")
     if out.is_dir() and not overwrite:
@@ -84,8 +103,84 @@ def prepare_output_dir(out: str | Path, *, overwrite: bool = False) -> Path:
                 f"output directory {out} already holds {len(entries)} entries ({shown}); "
                 "choose an empty directory or pass --overwrite"
             )
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+
+
+_STAGE = re.compile(r"^\.(?P<name>.+)\.tmp-(?P<pid>\d+)-[^.]+$")
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, another user's
+        return True
+    return True
+
+
+def _remove_stale_stages(out: Path) -> None:
+    """Remove ``.<name>.tmp-<pid>-*`` folders of ``out`` left by a process that died."""
+    for entry in out.parent.iterdir():
+        m = _STAGE.match(entry.name)
+        if m and m["name"] == out.name and entry.is_dir() and not _pid_alive(int(m["pid"])):
+            shutil.rmtree(entry, ignore_errors=True)
+
+
+def _default_dir_mode() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o777 & ~umask
+
+
+def _commit_stage(stage: Path, out: Path) -> None:
+    """Move the staged files to ``out``: one rename when ``out`` is absent or empty, else each
+    file atomically (``--overwrite`` of a folder holding other files, which stay)."""
+    if not out.exists() or (out.is_dir() and not any(out.iterdir())):
+        os.rename(stage, out)  # replaces an empty directory atomically (POSIX)
+        return
+    for src in sorted(stage.rglob("*")):
+        if src.is_file():
+            dest = out / src.relative_to(stage)
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dest)
+    shutil.rmtree(stage)
+
+
+@contextlib.contextmanager
+def staged_output_dir(out: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
+    """A temporary folder beside ``out`` whose files become ``out``'s when the block succeeds.
+
+    ``out`` is checked first (as :func:`prepare_output_dir` does). The block writes into the
+    yielded folder (``.<name>.tmp-<pid>-*`` in ``out``'s parent, the same file system); on
+    success it is renamed to ``out`` in one step (``out`` absent or empty) or, with
+    ``overwrite`` and a non-empty ``out``, each file is renamed over its old version. On any
+    exception (disk full, a failed render) the folder is removed and ``out`` is untouched, so a
+    rerun into the same ``out`` works. A folder left by a killed process is removed by the next
+    run into the same ``out``.
+
+    Examples
+    --------
+    >>> d = Path(tempfile.mkdtemp())
+    >>> with staged_output_dir(d / "pair") as stage:
+    ...     _ = (stage / "a.txt").write_text("hi")
+    >>> sorted(p.name for p in d.iterdir()), (d / "pair" / "a.txt").read_text()
+    (['pair'], 'hi')
+    """
+    out = Path(out)
+    _check_output_dir(out, overwrite)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    _remove_stale_stages(out)
+    stage = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.tmp-{os.getpid()}-"))
+    try:
+        os.chmod(stage, _default_dir_mode())
+        yield stage
+        _commit_stage(stage, out)
+    except BaseException as exc:
+        shutil.rmtree(stage, ignore_errors=True)
+        name = getattr(exc, "filename", None) if isinstance(exc, OSError) else None
+        if name is not None and Path(name).is_relative_to(stage):  # name the final path
+            raise OSError(exc.errno, exc.strerror, str(out / Path(name).relative_to(stage))) from exc
+        raise
 
 
 def calib_for(pair: StereoPair) -> dict:
@@ -239,3 +334,21 @@ def write_pair(
         atomic_write_bytes(out / "preview.png", encode_png(img), fsync=fsync)
         written.append(out / "preview.png")
     return written
+
+
+def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
+              fmt: str = "middlebury", overwrite: bool = False) -> list[Path]:
+    """Write ``pair`` as the whole folder ``out`` at once (what ``stereoforge render`` does).
+
+    :func:`write_pair` into a :func:`staged_output_dir`: after a failure (disk full, ...)
+    ``out`` is as before, never a part of the pair's files.
+
+    Returns
+    -------
+    list of Path
+        The files written, under ``out``.
+    """
+    out = Path(out)
+    with staged_output_dir(out, overwrite=overwrite) as stage:
+        written = write_pair(pair, stage, scene=scene, seed=seed, fmt=fmt)
+    return [out / p.relative_to(stage) for p in written]

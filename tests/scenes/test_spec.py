@@ -30,7 +30,7 @@ def _scene() -> SceneSpec:
     objects = (
         ObjectSpec("plane", Pose((0.05, 0.0, 2.0), (10.0, 30.0, 0.0)), (3.0, awkward),
                    TextureSpec(kind="checker", frequency=1e-3, seed=2**63 - 1), name="wall"),
-        ObjectSpec("moebius", Pose((-1.5e-300, 5e-324, 1.7976931348623157e308)), (1.0, 1.9999),
+        ObjectSpec("moebius", Pose((-1.5e-300, 5e-324, 999999.9999999999)), (1.0, 1.9999),
                    TextureSpec(kind="stripes", angle=-0.0, color=(0.25, 1.0, 0.0)),
                    name="strip \"quoted\" é\n", segments=4096, seed=7),
         ObjectSpec("terrain", Pose(), (30.0, 20.0, 0.0), TextureSpec(kind="constant")),
@@ -143,13 +143,19 @@ def test_dict_errors_name_the_problem(data: dict, pattern: str) -> None:
     (lambda: TextureSpec(seed=-1), r"seed: expected an integer in \[0, 9223372036854775808\), "
                                    r"got -1"),
     (lambda: Pose(translation=(0.0, float("inf"), 0.0)),
-     r"translation\[1\]: expected a finite number, got inf"),
+     r"translation\[1\]: expected a finite number in \[-1000000\.0, 1000000\.0\], got inf"),
+    (lambda: Pose(translation=(0.0, 0.0, 2e6)),
+     r"translation\[2\]: expected a finite number in \[-1000000\.0, 1000000\.0\], got 2000000\.0"),
     (lambda: ObjectSpec("box", Pose(), (1.0, 0.0, 1.0)),
-     r"ObjectSpec\.size\[1\] \(sy of a box\): expected a finite number > 0\.0, got 0\.0"),
+     r"ObjectSpec\.size\[1\] \(sy of a box\): expected a finite number in \(0\.0, 1000000\.0\], "
+     r"got 0\.0; sizes are metres, at most MAX_EXTENT = 1e\+06"),
+    (lambda: ObjectSpec("plane", Pose(), (1e300, 1.0)),
+     r"ObjectSpec\.size\[0\] \(width of a plane\): expected a finite number in \(0\.0, "
+     r"1000000\.0\], got 1e\+300"),
     (lambda: ObjectSpec("sphere", Pose(), (1.0, 2.0)),
      r"sphere \('radius',\): expected a sequence of 1 number, got 2 entries"),
     (lambda: ObjectSpec("terrain", Pose(), (1.0, 1.0, -0.1)),
-     r"size\[2\] \(amplitude of a terrain\): expected a finite number >= 0\.0, got -0\.1"),
+     r"size\[2\] \(amplitude of a terrain\): expected a finite number in \[0\.0, 1000000\.0\], got -0\.1"),
     (lambda: ObjectSpec("moebius", Pose(), (1.0, 2.0)),
      r"expected width < 2 \* radius, got \(1\.0, 2\.0\); narrow the strip"),
     (lambda: ObjectSpec("sphere", Pose(), (1.0,), segments=2),

@@ -34,6 +34,12 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
         ``fsync`` the file before the rename, so that after a crash the destination holds either
         the old or the complete new content.
 
+    Raises
+    ------
+    OSError
+        If the write fails (no space left, read-only, ...); it names ``path``, the temporary
+        file is gone and a previous ``path`` is untouched.
+
     Returns
     -------
     pathlib.Path
@@ -48,7 +54,10 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
     (b'hi', ['x.txt'])
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:  # name the destination, not the temporary name
+        raise OSError(exc.errno, exc.strerror, str(path)) from exc
     try:
         os.fchmod(fd, _default_mode())
         with os.fdopen(fd, "wb") as f:
@@ -57,11 +66,14 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
             if fsync:
                 os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError) and exc.filename in (None, tmp) and exc.errno is not None:
+            # a failed write (ENOSPC, EIO) names no file: name the destination
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
         raise
     return path
 

@@ -27,6 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
+from stereoforge.errors import FormatError
+from stereoforge.validation import check_text
+
 __all__ = ["CALIB_KEYS", "format_calib", "parse_calib", "read_calib"]
 
 #: Keys in the order the Middlebury 2014 files list them (and :func:`format_calib` writes them).
@@ -41,14 +44,26 @@ def _number(text: str, where: str) -> int | float:
     try:
         value = float(text)
     except ValueError:
-        raise ValueError(f"{where}: {text!r} is not a number") from None
+        raise FormatError(f"{where}: {text[:40]!r} is not a number") from None
+    if not np.isfinite(value):
+        raise FormatError(f"{where}: {text[:40]!r} is not a finite number; calib.txt holds "
+                          "finite numbers only")
     if value.is_integer() and "." not in text and "e" not in text.lower():
-        return int(text)
+        try:
+            return int(text)
+        except ValueError:  # more digits than Python converts
+            raise FormatError(f"{where}: {text[:40]!r}... has too many digits") from None
     return value
 
 
 def parse_calib(text: str, *, where: str = "calib.txt") -> dict[str, object]:
     """Parse the text of a ``calib.txt``.
+
+    Raises
+    ------
+    stereoforge.errors.FormatError
+        On a line that is not ``key=value``, a value that is not a finite number or a 3x3
+        matrix of them, a non-integer ``width``/``height``/``ndisp``/``isint``.
 
     Returns
     -------
@@ -71,23 +86,25 @@ def parse_calib(text: str, *, where: str = "calib.txt") -> dict[str, object]:
         key, sep, value = line.partition("=")
         key, value = key.strip(), value.strip()
         if not sep or not key:
-            raise ValueError(f"{here}: expected 'key=value', got {line!r}")
+            raise FormatError(f"{here}: expected 'key=value', got {line[:60]!r}")
         if value.startswith("["):
             if not value.endswith("]"):
-                raise ValueError(f"{here}: unterminated matrix {value!r}")
+                raise FormatError(f"{here}: unterminated matrix {value[:60]!r}")
             rows = [r.split() for r in value[1:-1].split(";")]
             try:
                 matrix = np.array([[float(x) for x in r] for r in rows], dtype=np.float64)
-            except ValueError:
-                raise ValueError(f"{here}: non-numeric matrix entry in {value!r}") from None
+            except ValueError:  # also rows of different lengths
+                raise FormatError(f"{here}: non-numeric matrix entry in {value[:60]!r}") from None
             if matrix.shape != (3, 3):
-                raise ValueError(f"{here}: expected a 3x3 matrix, got {value!r}")
+                raise FormatError(f"{here}: expected a 3x3 matrix, got {value[:60]!r}")
+            if not np.isfinite(matrix).all():
+                raise FormatError(f"{here}: expected finite matrix entries, got {value[:60]!r}")
             calib[key] = matrix
         else:
             number = _number(value, here)
             if key in _INT_KEYS:
                 if float(number) != int(number):
-                    raise ValueError(f"{here}: {key} must be an integer, got {value!r}")
+                    raise FormatError(f"{here}: {key} must be an integer, got {value[:40]!r}")
                 number = int(number)
             calib[key] = number
     return calib
@@ -106,7 +123,9 @@ def read_calib(path: str | os.PathLike[str]) -> dict[str, object]:
     64
     """
     path = Path(path)
-    return parse_calib(path.read_text(encoding="ascii"), where=str(path))
+    text = check_text(path.read_bytes(), str(path), encoding="ascii", error=FormatError,
+                      fix="a calib.txt is ASCII text")
+    return parse_calib(text, where=str(path))
 
 
 def _fmt(value: object) -> str:

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from matcher.io.atomic import atomic_write_bytes
 from stereoforge.errors import FormatError
 
 __all__ = [
@@ -283,21 +284,24 @@ def encode_pfm(array: np.ndarray, *, scale: float = -1.0) -> bytes:
     return b"%s\n%d %d\n%s\n" % (magic, w, h, scale_text) + data.tobytes()
 
 
-def write_pfm(path: str | os.PathLike[str], array: np.ndarray, *, scale: float = -1.0) -> Path:
+def write_pfm(path: str | os.PathLike[str], array: np.ndarray, *, scale: float = -1.0,
+              fsync: bool = True) -> Path:
     """Write an array as a PFM file.
 
     Parameters
     ----------
     path : str or path-like
-        Destination; overwritten if it exists. Not atomic: the dataset writers
-        (:mod:`matcher.io.middlebury`) encode with :func:`encode_pfm` and write atomically
-        (:mod:`matcher.io.atomic`).
+        Destination, in an existing directory; replaced atomically (a temporary file, then a
+        rename: see :mod:`matcher.io.atomic`), so a failure (disk full) leaves no truncated
+        file and a previous file intact.
     array : (H, W), (H, W, 1) or (H, W, 3) real array
         Converted to float32 (``Pf`` for one channel, ``PF`` for three). ``inf``/NaN are kept.
     scale : float, default -1.0
         Stored scale field. Its sign chooses the byte order: negative (the default, as in the
         Middlebury 2014 files) is little-endian, positive is big-endian. Its magnitude is
         written as given and never applied to the data.
+    fsync : bool, default True
+        Flush the file to disk before the rename (see :func:`atomic_write_bytes`).
 
     Returns
     -------
@@ -312,8 +316,4 @@ def write_pfm(path: str | os.PathLike[str], array: np.ndarray, *, scale: float =
     ...     read_pfm(p).shape
     (2, 2, 3)
     """
-    data = encode_pfm(array, scale=scale)
-    path = Path(path)
-    with open(path, "wb") as f:
-        f.write(data)
-    return path
+    return atomic_write_bytes(path, encode_pfm(array, scale=scale), fsync=fsync)

@@ -42,6 +42,7 @@ import numpy as np
 
 from matcher._validation import check_positive
 from matcher.io.pfm import read_pfm
+from stereoforge.errors import FormatError, ParameterError
 
 try:  # optional accelerator: pip install isal
     from isal import isal_zlib as _isal_zlib
@@ -64,6 +65,7 @@ KITTI_DIVISOR = 256.0
 DEFLATE = "zlib" if _isal_zlib is None else "isal"
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_MAX_PIXELS = 2**30  # OpenCV's CV_IO_MAX_IMAGE_PIXELS default
 _FILTER_UP = 2
 _LEVEL = 1  # ISA-L levels are 0..3, zlib's 0..9: level 1 is "fast" in both
 
@@ -73,10 +75,27 @@ def _imread(path: Path, flags: int) -> np.ndarray:
         raise FileNotFoundError(f"{path}: no such file")
     # np.fromfile + imdecode handles non-ASCII paths, which cv2.imread does not on every platform.
     data = np.fromfile(path, dtype=np.uint8)
-    image = cv2.imdecode(data, flags) if data.size else None
+    try:
+        image = cv2.imdecode(data, flags) if data.size else None
+    except cv2.error as exc:  # e.g. a header announcing more pixels than OpenCV allows (2**30)
+        size = _png_size(data)
+        if size and size[0] * size[1] > _MAX_PIXELS:
+            raise FormatError(f"{path}: the header announces a {size[0]}x{size[1]} image, more "
+                              f"than the {_MAX_PIXELS} pixels OpenCV decodes; check the "
+                              "file") from None
+        raise FormatError(f"{path}: corrupt image, OpenCV cannot decode it "
+                          f"({' '.join(str(exc).split())[-120:]})") from None
     if image is None:
-        raise ValueError(f"{path}: not an image OpenCV can decode (corrupt or unsupported format)")
+        raise FormatError(f"{path}: not an image OpenCV can decode (corrupt or unsupported format)")
     return image
+
+
+def _png_size(data: np.ndarray) -> tuple[int, int] | None:
+    """(width, height) from a PNG's IHDR, if ``data`` starts like a PNG."""
+    head = data[:24].tobytes()
+    if len(head) == 24 and head[:8] == _SIGNATURE and head[12:16] == b"IHDR":
+        return struct.unpack(">II", head[16:24])
+    return None
 
 
 def read_image(path: str | os.PathLike[str]) -> np.ndarray:
@@ -111,7 +130,7 @@ def read_image(path: str | os.PathLike[str]) -> np.ndarray:
     path = Path(path)
     image = _imread(path, cv2.IMREAD_UNCHANGED)
     if image.dtype != np.uint8:
-        raise ValueError(
+        raise FormatError(
             f"{path}: expected an 8-bit image, got dtype {image.dtype}; "
             "for 16-bit disparity maps use read_disparity"
         )
@@ -146,7 +165,7 @@ def decode_disparity_png(raw: np.ndarray, *, divisor: float, where: str = "dispa
     """
     divisor = check_positive(divisor, "divisor")
     if raw.dtype not in (np.uint8, np.uint16) or raw.ndim != 2:
-        raise ValueError(
+        raise FormatError(
             f"{where}: expected a single-channel 8- or 16-bit disparity image, got shape "
             f"{raw.shape} and dtype {raw.dtype}"
         )
@@ -191,19 +210,19 @@ def read_disparity(path: str | os.PathLike[str], *, divisor: float | None = None
     path = Path(path)
     if path.suffix.lower() == ".pfm":
         if divisor is not None:
-            raise ValueError(f"divisor: a PFM file stores pixels directly, got divisor={divisor}; pass None")
+            raise ParameterError(f"divisor: a PFM file stores pixels directly, got divisor={divisor}; pass None")
         disp = read_pfm(path)
         if disp.ndim != 2:
-            raise ValueError(f"{path}: expected a grey (Pf) disparity PFM, got shape {disp.shape}")
+            raise FormatError(f"{path}: expected a grey (Pf) disparity PFM, got shape {disp.shape}")
         return disp
     raw = _imread(path, cv2.IMREAD_UNCHANGED)
     if raw.ndim == 3:
         if not (raw == raw[:, :, :1]).all():
-            raise ValueError(f"{path}: a disparity PNG must be single-channel, got {raw.shape[2]} distinct channels")
+            raise FormatError(f"{path}: a disparity PNG must be single-channel, got {raw.shape[2]} distinct channels")
         raw = np.ascontiguousarray(raw[:, :, 0])
     if divisor is None:
         if raw.dtype != np.uint16:
-            raise ValueError(
+            raise ParameterError(
                 f"divisor: required for the 8-bit disparity PNG {path} (Middlebury: 3 for the "
                 "third size, 2 for half, 1 for full)"
             )

@@ -1,9 +1,9 @@
 """The ``stereoforge`` command line: a thin click layer, one module per command family.
 
 Every subcommand parses its options (shared ones are defined once, in :mod:`synth.cli.options`)
-and calls one library function; errors in the input are reported as ``Error: ...`` with exit
-status 2 (click's convention for usage errors) and no traceback. Nothing in the library imports
-this package.
+and calls one library function. Errors are reported once, by the group (:mod:`synth.cli.errors`):
+one ``Error: ...`` line, exit status 2 for bad input, 1 for a bad environment, a traceback only
+with ``stereoforge --debug``. Nothing in the library imports this package.
 
 - :mod:`synth.cli.rendering` — ``presets``, ``render``, ``demo``
 - :mod:`synth.cli.datasets` — ``dataset``
@@ -20,6 +20,7 @@ import click
 
 from synth.cli.bench import bench
 from synth.cli.datasets import dataset
+from synth.cli.errors import BoundaryGroup, set_debug
 from synth.cli.jobs import golden, paper, study
 from synth.cli.matching import eval_cmd, match_cmd
 from synth.cli.rendering import demo, presets, render
@@ -27,8 +28,10 @@ from synth.cli.rendering import demo, presets, render
 __all__ = ["main"]
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=BoundaryGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="stereoforge")
+@click.option("--debug", is_flag=True, expose_value=False, is_eager=True, callback=set_debug,
+              help="Show the Python traceback of an error instead of one 'Error:' line.")
 def main() -> None:
     """stereoforge: labelled stereo data with exact ground truth, and census matchers."""
 

@@ -35,11 +35,8 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
         n_threads = int(threads)
     else:
         fail(ValueError(f"--threads must be 'auto' or an int >= 0, got {threads!r}"))
-    try:
-        rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend,
-                            threads=n_threads, progress=True)
-    except ValueError as exc:
-        fail(exc)
+    rows = bench_render(sizes=parse_sizes(sizes), pairs=pairs, backend=backend,
+                        threads=n_threads, progress=True)
     click.echo(write_table(rows, Path(out), "render"))
 
 
@@ -99,12 +96,9 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend) -> 
     if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
         fail(ValueError(f"--workers must be positive ints separated by commas, got "
                          f"{workers_text!r}"))
-    try:
-        sizes = parse_sizes(size_text) if size_text is not None else [None]
-        if len(sizes) != 1:
-            raise ValueError(f"--size takes one WxH, got {size_text!r}")
-        rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
-                             backend=backend, progress=True, size=sizes[0])
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    sizes = parse_sizes(size_text) if size_text is not None else [None]
+    if len(sizes) != 1:
+        fail(ValueError(f"--size takes one WxH, got {size_text!r}"))
+    rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
+                         backend=backend, progress=True, size=sizes[0])
     click.echo(write_table(rows, Path(out), "dataset"))

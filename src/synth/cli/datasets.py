@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from synth.cli.options import backend_option, engine_option, fail, format_option, out_dir_option, workers_option
+from synth.cli.options import backend_option, engine_option, format_option, out_dir_option, workers_option
 
 __all__ = ["dataset"]
 
@@ -29,14 +29,10 @@ def dataset(config, out, count, workers, engine, address, fmt, backend) -> None:
         from synth.dataset.engine import start_worker_server
 
         start_worker_server(["synth.dataset.run"])  # the task's module (the server adds its own)
-    from synth.dataset import SampleError, run_dataset
+    from synth.dataset import run_dataset
 
-    try:
-        run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
-                          address=address, fmt=fmt, progress=True, backend=backend)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
-    except SampleError as exc:  # a sample failed: name it and how to reproduce it alone
-        raise click.ClickException(str(exc)) from exc
+    # a failed sample (SampleError, exit 1) names its index and how to reproduce it alone
+    run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
+                      address=address, fmt=fmt, progress=True, backend=backend)
     click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
                f"there, {run.seconds:.1f} s")

@@ -24,10 +24,7 @@ def paper(data, size, out) -> None:
     if not (data / size).is_dir():
         fail(FileNotFoundError(
             f"no {size}/ folder under {data}; pass --data pointing at the Middlebury scenes"))
-    try:
-        report = run_paper(data, size=size, out=out, progress=True)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    report = run_paper(data, size=size, out=out, progress=True)
     click.echo(f"report: {report}")
 
 
@@ -47,10 +44,7 @@ def study(config, out, workers, backend) -> None:
         start_worker_server(["synth.jobs.study"])
     from synth.jobs.study import run_study
 
-    try:
-        path = run_study(config, out=out, workers=workers, progress=True, backend=backend)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    path = run_study(config, out=out, workers=workers, progress=True, backend=backend)
     click.echo(f"results: {path / 'results.csv'}, summary: {path / 'summary.md'}")
 
 
@@ -69,10 +63,7 @@ def golden_check_cmd(root, render, backend) -> None:
     """Compare fresh matcher outputs (exactly) and renders (within tolerances) with golden/."""
     from synth.jobs.golden import golden_check
 
-    try:
-        report = golden_check(root, backend=backend, render=render)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    report = golden_check(root, backend=backend, render=render)
     click.echo(report.summary())
     if not report.ok:
         raise SystemExit(1)

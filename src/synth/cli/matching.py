@@ -31,17 +31,14 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
     from matcher.io import read_image, write_pfm
     from synth.jobs.timing import first_and_warm
 
-    try:
-        if out.suffix.lower() != ".pfm":
-            raise ValueError(f"--out must be a .pfm file (got {out.name})")
-        left_img, right_img = read_image(left), read_image(right)
-        timed = first_and_warm(lambda: match(
-            left_img, right_img, method=method, window=window, max_disparity=max_disp,
-            lr_check=lr_check, subpixel=subpixel, aggregate=aggregate))
-        result = timed.result
-        write_pfm(out, result.disparity)
-    except (ValueError, FileNotFoundError, TypeError) as exc:
-        fail(exc)
+    if out.suffix.lower() != ".pfm":
+        fail(ValueError(f"--out must be a .pfm file (got {out.name})"))
+    left_img, right_img = read_image(left), read_image(right)
+    timed = first_and_warm(lambda: match(
+        left_img, right_img, method=method, window=window, max_disparity=max_disp,
+        lr_check=lr_check, subpixel=subpixel, aggregate=aggregate))
+    result = timed.result
+    write_pfm(out, result.disparity)  # atomic: a failure leaves a previous file intact
     invalid = 100.0 * float((~(result.disparity < float("inf"))).mean())
     click.echo(f"{method} {window}x{window} D={max_disp}: {timed.describe()}, "
                f"invalid {invalid:.2f} %, wrote {out}")
@@ -72,17 +69,14 @@ def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json, benchmark
     """Compare an estimated disparity map DISP with the ground truth GT (PFM or PNG)."""
     from synth.jobs.evaluate import BENCHMARKS, evaluate_benchmarks, evaluate_files
 
-    try:
-        if benchmark is None:
-            report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
-                                    mask=mask, delta=delta)
-        else:
-            report = evaluate_benchmarks(
-                disp, gt, benchmarks=BENCHMARKS if benchmark == "all" else (benchmark,),
-                gt_divisor=gt_divisor, disp_divisor=disp_divisor, mask=mask, obj_map=obj_map,
-                ndisp=ndisp)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    if benchmark is None:
+        report = evaluate_files(disp, gt, gt_divisor=gt_divisor, disp_divisor=disp_divisor,
+                                mask=mask, delta=delta)
+    else:
+        report = evaluate_benchmarks(
+            disp, gt, benchmarks=BENCHMARKS if benchmark == "all" else (benchmark,),
+            gt_divisor=gt_divisor, disp_divisor=disp_divisor, mask=mask, obj_map=obj_map,
+            ndisp=ndisp)
     if as_json:
         click.echo(json.dumps(report, indent=2, sort_keys=True))
         return

@@ -45,31 +45,24 @@ def presets() -> None:
 def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite,
            from_manifest) -> None:
     """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
-    from synth import StereoRig, render_pair, write_pair
-    from synth.export import prepare_output_dir, resolve_scene
+    from synth import StereoRig, render_pair
+    from synth.export import resolve_scene, save_pair
 
     if from_manifest is not None:
         from synth import render_from_manifest
 
         if scene is not None:
             fail(ValueError("give either SCENE or --from-manifest DIR INDEX, not both"))
-        try:
-            written = render_from_manifest(from_manifest[0], from_manifest[1], out=out,
-                                           overwrite=overwrite, backend=backend)
-        except (ValueError, FileNotFoundError) as exc:
-            fail(exc)
+        written = render_from_manifest(from_manifest[0], from_manifest[1], out=out,
+                                       overwrite=overwrite, backend=backend)
         click.echo(f"wrote {len(written)} files to {out}")
         return
     if scene is None:
         fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
-    try:
-        spec, seed = resolve_scene(scene, seed=seed)
-        rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
-        pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
-        out = prepare_output_dir(out, overwrite=overwrite)
-        written = write_pair(pair, out, scene=spec, seed=seed, fmt=fmt)
-    except (ValueError, FileNotFoundError) as exc:
-        fail(exc)
+    spec, seed = resolve_scene(scene, seed=seed)
+    rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
+    pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
+    written = save_pair(pair, out, scene=spec, seed=seed, fmt=fmt, overwrite=overwrite)
     click.echo(f"wrote {len(written)} files to {out}")
 
 
@@ -83,9 +76,6 @@ def demo(out, width, height, seed, backend, overwrite) -> None:
     """Render every preset into OUT/<preset>/ and draw OUT/contact_sheet.png."""
     from synth.jobs.demo import run_demo
 
-    try:
-        sheet = run_demo(out, width=width, height=height, seed=seed, backend=backend,
-                         overwrite=overwrite, progress=True)
-    except ValueError as exc:
-        fail(exc)
+    sheet = run_demo(out, width=width, height=height, seed=seed, backend=backend,
+                     overwrite=overwrite, progress=True)
     click.echo(f"contact sheet: {sheet}")

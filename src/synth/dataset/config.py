@@ -18,7 +18,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -31,7 +30,7 @@ from scenes import PRESETS
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
 from stereoforge.validation import check_keys, describe
-from synth._toml import TomlSource
+from synth._toml import TomlSource, parse_toml, read_toml_text
 from synth.rig import StereoRig
 
 __all__ = [
@@ -355,11 +354,7 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     ...
     stereoforge.errors.ConfigError: my.toml:2: rig.width: expected an integer in [8, 8192], got 4
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{source}: invalid TOML: {exc}") from None
-    return _Parser(text, source).parse(data)
+    return _Parser(text, source).parse(parse_toml(text, source))
 
 
 def config_from_dict(data: Mapping[str, Any], *, source: str = "<dict>") -> DatasetConfig:
@@ -411,4 +406,4 @@ def load_config(config: str | Path | DatasetConfig) -> DatasetConfig:
     if not path.is_file():
         raise FileNotFoundError(f"dataset config {path} does not exist; pass a .toml file or "
                                 f"one of the examples: {', '.join(EXAMPLES)}")
-    return loads_config(path.read_text(encoding="utf-8"), source=str(path))
+    return loads_config(read_toml_text(path), source=str(path))

@@ -47,7 +47,8 @@ from typing import Any
 import numpy as np
 
 from matcher.io import atomic_write_bytes
-from stereoforge.errors import DatasetError, StereoforgeError
+from synth._json import read_json_object
+from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
 from synth.export import FORMATS, KITTI_ROOT, prepare_output_dir, write_pair
@@ -65,6 +66,10 @@ _FORMAT_VERSION = 2
 _SAMPLE_DIR = re.compile(r"^\d{6}$")
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _PHOTOMETRIC_STREAM = 3
+_RECORD_KEYS = {"index": int, "seed": int, "dir": str, "params": dict, "stats": dict}
+_HEADER_KEYS = {"config": dict, "format": str}
+_MODIFIED = ("the dataset directory was modified or was not made by stereoforge; delete the "
+             "damaged file's sample folder (or the whole directory) and run again")
 
 
 class SampleError(StereoforgeError, RuntimeError):
@@ -245,7 +250,8 @@ def read_manifest(dataset_dir: str | Path) -> list[dict]:
     records = []
     for d in root.iterdir():
         if d.is_dir() and _SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():
-            records.append(json.loads((d / "sample.json").read_text()))
+            records.append(read_json_object(d / "sample.json", what="sample record",
+                                            keys=_RECORD_KEYS, fix=_MODIFIED))
     return sorted(records, key=lambda r: r["index"])
 
 
@@ -288,7 +294,7 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
     header = _dataset_header(config, fmt)
     path = out / "dataset.json"
     if path.is_file():
-        old = json.loads(path.read_text())
+        old = read_json_object(path, what="dataset header", fix=_MODIFIED)
         if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
             raise DatasetError(
                 f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
@@ -455,13 +461,14 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     path = root / "dataset.json"
     if not path.is_file():
         raise DatasetError(f"{root} has no dataset.json; pass a directory made by run_dataset")
-    header = json.loads(path.read_text())
+    header = read_json_object(path, what="dataset header", keys=_HEADER_KEYS, fix=_MODIFIED)
     cfg = config_from_dict(header["config"], source=str(path))
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
-        raise ValueError(f"index must be an int in [0, 999999], got {index!r}")
+        raise ParameterError(f"index must be an int in [0, 999999], got {index!r}")
     record = root / f"{index:06d}" / "sample.json"
     seed = sample_seed(cfg.seed, index)
-    if record.is_file() and json.loads(record.read_text())["seed"] != seed:
+    if record.is_file() and read_json_object(record, what="sample record", keys={"seed": int},
+                                             fix=_MODIFIED)["seed"] != seed:
         raise DatasetError(f"{record} has another seed than sample {index} of {path}; the "
                            "dataset directory was modified")
     dest = prepare_output_dir(out, overwrite=overwrite)

@@ -6,8 +6,8 @@ from pathlib import Path
 
 
 from scenes import list_presets
+from synth.export import resolve_scene, staged_output_dir, write_pair
 from synth.progress import progress as progress_bar
-from synth.export import prepare_output_dir, resolve_scene, write_pair
 from synth.pair import render_pair
 from synth.preview import contact_sheet
 from synth.render.renderer import Renderer
@@ -31,7 +31,8 @@ def run_demo(
     Parameters
     ----------
     out : str or Path
-        Output directory; must be empty unless ``overwrite``.
+        Output directory; must be empty unless ``overwrite``. Written as a whole
+        (:func:`synth.export.staged_output_dir`): a failed demo leaves it as it was.
     width, height : int
         Image size of every pair.
     seed : int
@@ -50,14 +51,16 @@ def run_demo(
     """
     rig = StereoRig.default(width, height)
     names = [name for name, _ in list_presets()]
-    out = prepare_output_dir(out, overwrite=overwrite)
     rows = []
-    with Renderer(width, height, backend=backend) as renderer:
-        for name in progress_bar(names, desc="demo", unit="scene", enabled=progress):
-            spec, seed_used = resolve_scene(name, seed=seed)
-            pair = render_pair(spec, rig, renderer=renderer)
-            scene_dir = out / name
-            scene_dir.mkdir(exist_ok=True)
-            write_pair(pair, scene_dir, scene=spec, seed=seed_used)
-            rows.append((name, pair))
-    return contact_sheet(rows, out / "contact_sheet.png")
+    # written into a staged folder that becomes ``out`` when complete: never half a demo
+    with staged_output_dir(out, overwrite=overwrite) as stage:
+        with Renderer(width, height, backend=backend) as renderer:
+            for name in progress_bar(names, desc="demo", unit="scene", enabled=progress):
+                spec, seed_used = resolve_scene(name, seed=seed)
+                pair = render_pair(spec, rig, renderer=renderer)
+                scene_dir = stage / name
+                scene_dir.mkdir()
+                write_pair(pair, scene_dir, scene=spec, seed=seed_used)
+                rows.append((name, pair))
+        contact_sheet(rows, stage / "contact_sheet.png")
+    return Path(out) / "contact_sheet.png"

@@ -51,6 +51,8 @@ import numpy as np
 from matcher import match
 from matcher.io import atomic_write_bytes, decode_pfm, encode_pfm, load_middlebury_2014, read_pfm
 from matcher.metrics import evaluate
+from stereoforge.errors import FormatError, StereoforgeError
+from synth._json import loads_json_object, read_json_object
 from synth.jobs.golden_compare import (
     TOLERANCES,
     RenderDiff,
@@ -83,6 +85,8 @@ _SCENE_FILES = ("im0.png", "im1.png", "disp0GT.pfm", "disp1GT.pfm", "mask0nocc.p
                 "scene.json")
 _VERSION_DISTS = ("stereoforge", "numpy", "opencv-python-headless", "numba", "scikit-image",
                   "scipy", "trimesh", "PyOpenGL")
+
+_REGENERATE = "regenerate it with `stereoforge golden update`"
 
 
 # --------------------------------------------------------------------------- results
@@ -342,7 +346,13 @@ def golden_check(root: str | Path = "golden", *, backend: str = "auto", matchers
     failures: list[str] = []
     notes: list[str] = []
     try:
-        manifest = json.loads((root / "manifest.json").read_text())
+        manifest = read_json_object(root / "manifest.json", what="golden manifest",
+                                    keys={"scenes": list, "rig": dict, "versions": dict},
+                                    fix=_REGENERATE, error=FormatError)
+        for i, scene in enumerate(manifest["scenes"]):
+            loads_json_object(json.dumps(scene), where=f"{root / 'manifest.json'} scenes[{i}]",
+                              what="golden scene entry", fix=_REGENERATE, error=FormatError,
+                              keys={"name": str, "preset": str, "seed": int})
     except FileNotFoundError:
         return CheckReport(root, (f"manifest.json: missing in {root}; create it with "
                                   "golden_update(root)",), (), 0, ())
@@ -406,9 +416,10 @@ def golden_update(root: str | Path = "golden", *, backend: str = "auto") -> list
     root = Path(root)
     files = generate_golden(backend=backend)
     try:
-        old_listed = set(json.loads((root / "manifest.json").read_text()).get("sha256", {}))
+        old = read_json_object(root / "manifest.json", what="golden manifest")
+        old_listed = set(old.get("sha256", {})) if isinstance(old.get("sha256"), dict) else set()
         old_listed.add("manifest.json")
-    except (OSError, ValueError):
+    except (OSError, StereoforgeError):  # absent or damaged: everything counts as added
         old_listed = set()
     changes = []
     for rel, data in files.items():

@@ -42,6 +42,8 @@ from pathlib import Path
 from typing import Any
 
 from matcher.io import atomic_write_bytes
+from stereoforge.errors import StereoforgeError
+from synth._json import read_json_object
 from synth.progress import progress as progress_bar
 from synth.dataset.engine import run_tasks
 from synth.jobs.study_config import (
@@ -161,8 +163,8 @@ def _json(obj: Any) -> bytes:
 # --------------------------------------------------------------------------- the run
 def _load_cell(path: Path, fingerprint: str) -> dict | None:
     try:
-        record = json.loads(path.read_text())
-    except (OSError, ValueError):
+        record = read_json_object(path, what="study cell")
+    except (OSError, StereoforgeError):  # absent or damaged: computed again
         return None
     return record if record.get("fingerprint") == fingerprint else None
 

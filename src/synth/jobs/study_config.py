@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -15,7 +14,7 @@ from scenes import PRESETS
 from scenes.spec import TEXTURE_KINDS
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
-from synth._toml import TomlSource
+from synth._toml import TomlSource, parse_toml, read_toml_text
 from synth.rig import StereoRig
 
 __all__ = ["SCHEMA", "StudyConfig", "StudyConfigError", "load_study_config",
@@ -116,10 +115,7 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
     ...
     synth.jobs.study_config.StudyConfigError: s.toml:2: match.windows[1]: expected an odd integer in [3, 255], got 8
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyConfigError(f"{source}: invalid TOML: {exc}") from None
+    data = parse_toml(text, source, StudyConfigError)
     toml = TomlSource(text, source, StudyConfigError)
     top = toml.table(data, (), SCHEMA[""], skip=_TABLES)
     tables = {name: toml.table(data.get(name, {}), (name,), SCHEMA[name]) for name in _TABLES}
@@ -201,4 +197,4 @@ def load_study_config(config: str | Path | StudyConfig) -> StudyConfig:
     if not path.is_file():
         raise FileNotFoundError(f"study config {path} does not exist; pass a .toml file or one "
                                 f"of the shipped studies: {', '.join(shipped)}")
-    return loads_study_config(path.read_text(encoding="utf-8"), source=str(path))
+    return loads_study_config(read_toml_text(path, StudyConfigError), source=str(path))

@@ -15,10 +15,59 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stereoforge.errors import ParameterError
 from synth.render.backend import GLBackendError
 from synth.render.meshes import Mesh
 
-__all__ = ["GLScene", "Passes"]
+__all__ = ["GLLimits", "GLScene", "Passes"]
+
+
+@dataclass(frozen=True)
+class GLLimits:
+    """The size limits of the current GL context, queried once per :class:`Passes`.
+
+    Attributes
+    ----------
+    renderbuffer : int
+        ``GL_MAX_RENDERBUFFER_SIZE``: the largest side of a framebuffer attachment.
+    texture : int
+        ``GL_MAX_TEXTURE_SIZE``: the largest side of a texture.
+    viewport : (int, int)
+        ``GL_MAX_VIEWPORT_DIMS``.
+    """
+
+    renderbuffer: int
+    texture: int
+    viewport: tuple[int, int]
+
+    @classmethod
+    def query(cls) -> GLLimits:
+        """The limits of the context current in this thread."""
+        from OpenGL import GL
+
+        dims = np.asarray(GL.glGetIntegerv(GL.GL_MAX_VIEWPORT_DIMS)).ravel()
+        return cls(int(np.asarray(GL.glGetIntegerv(GL.GL_MAX_RENDERBUFFER_SIZE)).ravel()[0]),
+                   int(np.asarray(GL.glGetIntegerv(GL.GL_MAX_TEXTURE_SIZE)).ravel()[0]),
+                   (int(dims[0]), int(dims[1])))
+
+    def check_view(self, width: int, height: int) -> None:
+        """Refuse a ``width`` x ``height`` view larger than the framebuffer and viewport limits."""
+        for name, value, viewport in (("width", width, self.viewport[0]),
+                                      ("height", height, self.viewport[1])):
+            limit = min(self.renderbuffer, viewport)
+            if value > limit:
+                raise ParameterError(
+                    f"{name}: expected at most {limit} pixels, the largest view this GL context "
+                    f"renders (GL_MAX_RENDERBUFFER_SIZE = {self.renderbuffer}, "
+                    f"GL_MAX_VIEWPORT_DIMS = {self.viewport[0]} x {self.viewport[1]}), got "
+                    f"{value}; render a smaller image")
+
+    def check_texture(self, width: int, height: int) -> None:
+        """Refuse a texture with a side above ``GL_MAX_TEXTURE_SIZE``."""
+        if max(width, height) > self.texture:
+            raise ParameterError(
+                f"texture: expected sides of at most GL_MAX_TEXTURE_SIZE = {self.texture} "
+                f"pixels, got {width} x {height}; use a smaller texture")
 
 
 #: Samples per pixel of the colour pass (its resolve averages them: area antialiasing).
@@ -150,6 +199,8 @@ class Passes:
     def __init__(self, width: int, height: int) -> None:
         from OpenGL import GL
 
+        self.limits = GLLimits.query()
+        self.limits.check_view(width, height)  # before any GL object exists
         self.color_program = _program(_COLOR_VERT, _COLOR_FRAG)
         self.loc_color_pv = GL.glGetUniformLocation(self.color_program, "PV")
         GL.glUseProgram(self.color_program)
@@ -168,6 +219,7 @@ class Passes:
         """(Re)allocate the framebuffers for ``width`` x ``height`` views."""
         from OpenGL import GL
 
+        self.limits.check_view(width, height)
         for fb in self.fbs:
             _delete_framebuffer(fb)
         self.w, self.h = width, height
@@ -200,9 +252,9 @@ class Passes:
         """
         from OpenGL import GL
 
+        h, w = image.shape[:2]
         tex = GL.glGenTextures(1)
         GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-        h, w = image.shape[:2]
         source = GL.GL_RGBA if image.shape[2] == 4 else GL.GL_RGB
         GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA8, w, h, 0, source,
                         GL.GL_UNSIGNED_BYTE, image)
@@ -225,6 +277,9 @@ class Passes:
 
         meshes = sorted(meshes, key=lambda m: not m.closed)  # stable: scene order within groups
         closed = sum(int(m.faces.size) for m in meshes if m.closed)
+        for m in meshes:  # every texture checked before anything is uploaded
+            if m.image is not None:
+                self.limits.check_texture(m.image.shape[1], m.image.shape[0])
         textures: dict[int, int] = {}
         draws = []
         first = 0

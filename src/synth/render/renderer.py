@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from stereoforge.errors import ParameterError
 from synth.render.backend import (
     BACKENDS,
     DEBIAN_FIX,
@@ -157,6 +158,9 @@ class Renderer:
         except GLBackendError as exc:
             raise GLBackendError(f"the {self.backend} backend failed to start: {exc.problem}",
                                  fix=exc.fix) from exc
+        except ParameterError as exc:  # a size above the context's limits (GLLimits)
+            self._context.destroy()
+            raise ParameterError(f"{exc} (the {self.backend} backend)") from None
         except Exception as exc:
             raise GLBackendError(
                 f"the {self.backend} backend failed to start in this process: "
