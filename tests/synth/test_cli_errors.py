@@ -7,6 +7,7 @@ import errno
 import os
 import struct
 import subprocess
+import sys
 import zlib
 from pathlib import Path
 
@@ -186,9 +187,11 @@ def test_a_size_above_the_gl_limit_names_the_limit(tmp_path, renderer):
 
 def test_debug_shows_the_traceback(tmp_path):
     (tmp_path / "s.json").write_text('{"name": "x", "objects": 5}')
-    plain = subprocess.run(["stereoforge", "render", "s.json", "--out", "o"], cwd=tmp_path,
+    # the installed console script beside this interpreter (a venv's bin/ need not be on PATH)
+    tool = str(Path(sys.executable).with_name("stereoforge"))
+    plain = subprocess.run([tool, "render", "s.json", "--out", "o"], cwd=tmp_path,
                            capture_output=True, text=True)
-    debug = subprocess.run(["stereoforge", "--debug", "render", "s.json", "--out", "o"],
+    debug = subprocess.run([tool, "--debug", "render", "s.json", "--out", "o"],
                            cwd=tmp_path, capture_output=True, text=True)
     assert plain.returncode == 2 and "Traceback" not in plain.stderr
     assert plain.stderr.strip().splitlines() == [
@@ -247,7 +250,7 @@ def test_render_on_a_full_disk_leaves_nothing_and_a_rerun_works(small_disk, rend
                     small_disk)
     if again.exit_code == 0:  # the real tmpfs has room for a small pair
         assert sorted(p.name for p in (small_disk / "o").iterdir())[:2] == ["calib.txt",
-                                                                           "disp0.pfm"]
+                                                                           "disp0GT.pfm"]
 
 
 def test_match_on_a_full_disk_keeps_the_previous_file(small_disk, tmp_path):
