@@ -1,0 +1,60 @@
+"""The manifest of a dataset: the records of its complete samples, as JSON lines and CSV.
+
+``manifest.jsonl`` holds one record (``NNNNNN/sample.json``) per line, sorted by index;
+``manifest.csv`` the same records flattened (``index, seed, dir, params.*, stats.*``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+__all__ = ["SAMPLE_DIR", "read_manifest", "manifest_bytes"]
+
+#: Name of a sample directory: its index on six digits.
+SAMPLE_DIR = re.compile(r"^\d{6}$")
+
+
+def read_manifest(dataset_dir: str | Path) -> list[dict]:
+    """Records of the samples of a dataset, sorted by index (from ``NNNNNN/sample.json``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> read_manifest(tempfile.mkdtemp())
+    []
+    """
+    root = Path(dataset_dir)
+    records = []
+    for d in root.iterdir():
+        if d.is_dir() and SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():
+            records.append(json.loads((d / "sample.json").read_text()))
+    return sorted(records, key=lambda r: r["index"])
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def manifest_bytes(records: list[dict]) -> tuple[bytes, bytes]:
+    """The bytes of ``manifest.jsonl`` and ``manifest.csv`` for ``records`` (sorted by index)."""
+    jsonl = "".join(json.dumps(r, sort_keys=True) + "\n" for r in records)
+    params = sorted({k for r in records for k in r["params"]})
+    stats = sorted({k for r in records for k in r["stats"]})
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(["index", "seed", "dir", *(f"params.{k}" for k in params),
+                     *(f"stats.{k}" for k in stats)])
+    for r in records:
+        writer.writerow([r["index"], r["seed"], r["dir"],
+                         *(_cell(r["params"].get(k)) for k in params),
+                         *(_cell(r["stats"].get(k)) for k in stats)])
+    return jsonl.encode(), buf.getvalue().encode()
