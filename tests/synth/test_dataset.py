@@ -436,3 +436,28 @@ def test_a_torn_sample_is_rendered_again_with_the_same_bytes(config_file, tmp_pa
     run = run_dataset(config_file, out=out, fmt=fmt, count=4, progress=False)
     assert (run.rendered, run.skipped) == (4 - torn, torn)
     _assert_same_tree(clean, out)
+
+
+@pytest.mark.gl
+def test_kitti_records_list_the_images_outside_the_sample_folder(config_file, tmp_path,
+                                                                  renderer):
+    from synth.dataset.integrity import verify_dataset
+
+    out = tmp_path / "kitti"
+    run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
+    record = json.loads((out / "000001" / RECORD).read_text())
+    assert sorted(record["files"]) == sorted(
+        [f"{s}/000001_10.png" for s in ("image_2", "image_3", "disp_occ_0", "disp_noc_0")]
+        + ["000001/scene.json", "000001/sample.json"])
+    clean = _tree(out)
+    image = out / "image_3" / "000001_10.png"
+    image.write_bytes(image.read_bytes()[:100])
+    (out / "disp_noc_0" / "000009_10.png").write_bytes(b"stray")
+    assert verify_dataset(out) == [
+        f"image_3/000001_10.png: 100 bytes, its record says {len(clean['image_3/000001_10.png'])} "
+        "bytes (truncated or replaced)",
+        "disp_noc_0/000009_10.png: extra file (no sample's record lists it)"]
+    (out / "disp_noc_0" / "000009_10.png").unlink()
+    run = run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
+    assert (run.rendered, run.skipped) == (1, 1)
+    assert _tree(out) == clean
