@@ -149,3 +149,48 @@ def test_occluder_texture_frequency_scales_with_depth(frequency_px):
             assert o.texture.frequency == pytest.approx(want * 500 / depth)
             seen.append(o.texture.frequency)
     assert seen[0] == pytest.approx(4 * seen[-1])  # 4x farther: 4x fewer cycles per metre
+
+
+@pytest.mark.gl
+def test_manifest_csv_spells_every_record_cell(tmp_path, renderer):
+    """manifest.csv: one row per record, ``true``/``false``, empty for None, repr of floats."""
+    import csv
+
+    cfg = loads_config("count = 2\n[rig]\nwidth = 64\nheight = 48\n[scene]\n"
+                       'base = "fronto_plane"\ntexture = "noise"\n'
+                       "edge_density = {uniform = [0.1, 0.2]}\n")
+    out = tmp_path / "ds"
+    run_dataset(cfg, out=out, progress=False)
+    records = read_manifest(out)
+    rows = list(csv.DictReader((out / "manifest.csv").read_text().splitlines()))
+    assert len(rows) == len(records) == 2
+
+    def spelt(value) -> str:
+        if value is None:
+            return ""
+        if isinstance(value, bool):
+            return {True: "true", False: "false"}[value]
+        return repr(value) if isinstance(value, float) else str(value)
+
+    for row, r in zip(rows, records):
+        want = {"index": str(r["index"]), "seed": str(r["seed"]), "dir": r["dir"],
+                **{f"params.{k}": spelt(v) for k, v in r["params"].items()},
+                **{f"stats.{k}": spelt(v) for k, v in r["stats"].items()}}
+        assert row == want
+    assert {row["stats.edge_search_converged"] for row in rows} <= {"true", "false"}
+
+
+@pytest.mark.parametrize("top, vmax, ndisp", [(31.5, 32, 48), (32.0, 32, 48), (15.2, 16, 32),
+                                              (14.0, 14, 16)])
+def test_calib_ndisp_is_above_vmax_also_on_a_multiple_of_16(top, vmax, ndisp):
+    """ndisp = vmax + 1 rounded up to a multiple of 16: d = vmax must be searched."""
+    from types import SimpleNamespace
+
+    from synth.export import calib_for
+    from synth.rig import StereoRig
+
+    disp = np.array([[np.inf, 3.25, top]], np.float32)
+    rig = StereoRig(width=3, height=1, fx=100.0, fy=100.0, cx=1.0, cy=0.0, baseline=0.1)
+    pair = SimpleNamespace(disp_left=disp, disp_right=disp[:, ::-1], rig=rig)
+    calib = calib_for(pair)
+    assert (calib["vmin"], calib["vmax"], calib["ndisp"]) == (3, vmax, ndisp)
