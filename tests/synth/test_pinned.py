@@ -56,10 +56,13 @@ def _check_calib(folder: Path) -> None:
         assert (k[0, 2], k[1, 2]) == pytest.approx((rig["cx"], rig["cy"]))
 
 
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory, renderer) -> Path:
+# the default focal length, and a wide one (fx = 24 px) that shows the empty background: both
+# occluded (mask 128) and invalid (mask 0) pixels occur, so neither statistic stands for the other
+@pytest.fixture(scope="module", params=["", "fx = 24\n"], ids=["default-fx", "wide"])
+def tiny(request, tmp_path_factory, renderer) -> Path:
     out = tmp_path_factory.mktemp("pinned") / "ds"
-    run_dataset(loads_config(_TINY), out=out, progress=False)
+    text = _TINY.replace("baseline = 0.12\n", "baseline = 0.12\n" + request.param)
+    run_dataset(loads_config(text), out=out, progress=False)
     return out
 
 
@@ -105,6 +108,8 @@ def test_manifest_statistics_equal_the_files(tiny):
     lines = (tiny / "manifest.jsonl").read_text().splitlines()
     assert [json.loads(line) for line in lines] == records
     assert any(r["stats"]["occluded_fraction"] > 0 for r in records)
+    if fx == 24:  # the wide rig
+        assert all(r["stats"]["invalid_fraction"] > 0.3 for r in records)
 
 
 def _gauss(sigma: float) -> np.ndarray:
