@@ -1,20 +1,24 @@
 #!/usr/bin/env python3
-"""Mutation check: plant deliberate bugs in the matcher and show which tests kill each one.
+"""Mutation check: plant deliberate bugs in matcher, synth and scenes; show which tests kill each.
 
 Each mutant is one textual change to one source file. For every mutant the script copies ``src/``,
 ``tests/``, ``conftest.py`` and ``pyproject.toml`` into a temporary folder, applies the change,
-runs the matcher tests there (the copy's ``src`` first on ``PYTHONPATH``) and records the tests
-that fail. A mutant survives when no test fails: that is a hole in the suite. The script exits 1
-if any mutant survives (or cannot be planted because its target text moved), so it can guard the
-suite itself.
+runs the mutant's tests there (the copy's ``src`` first on ``PYTHONPATH``; the matcher tests for
+matcher mutants, a relevant subset of the synth/scenes tests for the others, GL required) and
+records the tests that fail. A mutant survives when no test fails: that is a hole in the suite.
+Before the mutants, each distinct test set runs once on the unmutated copy and must pass (else a
+failing test would "kill" every mutant). The script exits 1 if any mutant survives (or cannot be
+planted because its target text moved), so it can guard the suite itself.
 
 Usage::
 
-    .venv/bin/python tools/mutants.py              # all mutants, Markdown table on stdout
-    .venv/bin/python tools/mutants.py --list       # what would be planted
-    .venv/bin/python tools/mutants.py -k spiral    # only mutants whose name contains "spiral"
+    .venv/bin/python tools/mutants.py                       # all mutants, Markdown table on stdout
+    .venv/bin/python tools/mutants.py --list                # what would be planted
+    .venv/bin/python tools/mutants.py -k spiral             # mutants whose name contains "spiral"
+    .venv/bin/python tools/mutants.py --under src/synth --under src/scenes   # synth and scenes
 
-It takes a few minutes (each mutant recompiles the numba kernels); it does not run in CI.
+It is slow (each mutant recompiles the numba kernels it uses; the synth mutants render): about
+a minute per mutant on 2 cores. It does not run in CI.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ class Mutant:
     path: str  # relative to the repository root
     edits: tuple[tuple[str, str], ...]  # (exact old text, new text); each old text must occur
     why: str
+    tests: tuple[str, ...] = ()  # pytest arguments (paths, -m ...); default: the matcher tests
 
 
 _U8_BITS = tuple((f"if c > s{k}[x]", f"if c < s{k}[x]") for k in range(8))
@@ -98,6 +103,161 @@ MUTANTS = (
 )
 
 
+_PINNED = ("tests/synth/test_pinned.py", "tests/synth/test_golden_samples.py")
+_NOT_SLOW = ("-m", "not slow")
+_DATASET = ("tests/synth/test_dataset.py", *_PINNED, *_NOT_SLOW)
+_PHOTOMETRIC = ("tests/synth/test_photometric.py", "tests/synth/test_photometric_properties.py",
+                *_PINNED)
+_SAMPLING = ("tests/synth/test_dataset_sampling.py", *_PINNED)
+_CALIB = ("tests/synth/test_rig.py", "tests/synth/test_render.py", *_PINNED, *_NOT_SLOW)
+_SCENES = ("tests/scenes", *_PINNED)
+
+MUTANTS += (
+    Mutant(
+        "resume trusts a sample folder",
+        "src/synth/dataset/run.py",
+        (("todo = [i for i in range(count) if sample_problems(out, i)]",
+          'todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]'),),
+        "an emptied or truncated sample counts as done (the bug before completion records)",
+        _DATASET,
+    ),
+    Mutant(
+        "resume ignores the recorded sizes",
+        "src/synth/dataset/integrity.py",
+        (('if size != entry["bytes"]:', 'if size != entry.get("size", size):'),),
+        "the size check reads a key the record does not have: a truncated file passes",
+        _DATASET,
+    ),
+    Mutant(
+        "record forgets the KITTI images",
+        "src/synth/dataset/run.py",
+        (('for path in sorted(p for p in tmp.rglob("*") if p.is_file()):',
+          'for path in sorted(p for p in tmp.glob("*") if p.is_file()):'),),
+        "the completion record lists the sample folder only, not training/image_2/ ... of KITTI",
+        _DATASET,
+    ),
+    Mutant(
+        "verify stops at the last sample present",
+        "src/synth/dataset/integrity.py",
+        (("for index in sorted(set(range(last + 1)) | set(present)):",
+          "for index in sorted(set(present)):"),),
+        "holes (missing indices) are not reported",
+        _DATASET,
+    ),
+    Mutant(
+        "photometric noise seeded by the dataset",
+        "src/synth/dataset/run.py",
+        (("rng=stream(draw.seed, _PHOTOMETRIC_STREAM)",
+          "rng=stream(config.seed, _PHOTOMETRIC_STREAM)"),),
+        "every sample gets the same noise field (dataset seed instead of the sample's)",
+        _DATASET,
+    ),
+    Mutant(
+        "photometric noise shares the preset's stream",
+        "src/synth/dataset/run.py",
+        (("_PHOTOMETRIC_STREAM = 3", "_PHOTOMETRIC_STREAM = 1"),),
+        "the noise is drawn from the stream that seeds the base preset (correlated draws)",
+        _DATASET,
+    ),
+    Mutant(
+        "occluder texture ignores depth",
+        "src/synth/dataset/sampling.py",
+        (("frequency=f_px * rig.fx / z,", "frequency=f_px * rig.fx,"),),
+        "occluder textures get f_px * fx cycles/m at any depth instead of f_px * fx / Z",
+        _SAMPLING,
+    ),
+    Mutant(
+        "occluders placed upside down",
+        "src/synth/dataset/sampling.py",
+        (("(v - rig.cy) * z / rig.fy", "(rig.cy - v) * z / rig.fy"),),
+        "the drawn pixel row is mirrored (OpenCV's y axis points down)",
+        _SAMPLING,
+    ),
+    Mutant(
+        "calib vmax floored",
+        "src/synth/export.py",
+        (("vmax = int(math.ceil(hi))", "vmax = int(math.floor(hi))"),),
+        "calib.txt vmax below the largest disparity",
+        _CALIB,
+    ),
+    Mutant(
+        "calib ndisp without the + 1",
+        "src/synth/export.py",
+        (("ndisp = int(16 * math.ceil((vmax + 1) / 16))", "ndisp = int(16 * math.ceil(vmax / 16))"),),
+        "ndisp = vmax when vmax is a multiple of 16 (the search misses d = vmax)",
+        _CALIB,
+    ),
+    Mutant(
+        "calib baseline in metres",
+        "src/synth/rig.py",
+        (('"baseline": self.baseline * 1000.0,', '"baseline": self.baseline,'),),
+        "calib.txt baseline in metres instead of Middlebury's millimetres",
+        _CALIB,
+    ),
+    Mutant(
+        "occluded fraction counts invalid pixels",
+        "src/synth/dataset/run.py",
+        (("np.count_nonzero(pair.mask_left == 128) / mask_size",
+          "np.count_nonzero(pair.mask_left != 255) / mask_size"),),
+        "manifest occluded_fraction includes the invalid (mask 0) pixels",
+        _DATASET,
+    ),
+    Mutant(
+        "texture frequency statistic at the wrong depth",
+        "src/synth/dataset/sampling.py",
+        (("values = [o.texture.frequency * o.pose.translation[2] / fx",
+          "values = [o.texture.frequency / fx"),),
+        "manifest texture_frequency_px forgets the object's depth",
+        _SAMPLING,
+    ),
+    Mutant(
+        "manifest CSV booleans in Python spelling",
+        "src/synth/dataset/manifest.py",
+        (('return "true" if value else "false"', "return str(value)"),),
+        "manifest.csv writes True/False instead of true/false",
+        _DATASET,
+    ),
+    Mutant(
+        "blur border replicated",
+        "src/synth/photometric.py",
+        (("borderType=cv2.BORDER_REFLECT_101", "borderType=cv2.BORDER_REPLICATE"),),
+        "the documented reflected border becomes a replicated one",
+        _PHOTOMETRIC,
+    ),
+    Mutant(
+        "gain applied after the bias",
+        "src/synth/photometric.py",
+        (("return cv2.addWeighted(img, gain, noise, 1.0, bias, dtype=cv2.CV_8U)",
+          "return cv2.addWeighted(img, gain, noise, 1.0, bias * gain, dtype=cv2.CV_8U)"),),
+        "with noise, the right image is (x + bias) * gain instead of x * gain + bias",
+        _PHOTOMETRIC,
+    ),
+    Mutant(
+        "gamma inverted on blurred images",
+        "src/synth/photometric.py",
+        (("np.power(img, np.float32(gamma), out=img)",
+          "np.power(img, np.float32(1.0 / gamma), out=img)"),),
+        "255 * (x / 255) ** (1 / gamma)",
+        _PHOTOMETRIC,
+    ),
+    Mutant(
+        "texture contrast doubled",
+        "src/scenes/textures.py",
+        (("grey *= np.float32(spec.contrast * 0.5)", "grey *= np.float32(spec.contrast)"),),
+        "g = mean + contrast * p instead of mean + contrast * p / 2",
+        _SCENES,
+    ),
+    Mutant(
+        "scene round trip drops the pose",
+        "src/scenes/spec.py",
+        (('kw["pose"] = _build(Pose, _take(kw.get("pose", {}), Pose, f"{where}.pose"), f"{where}.pose")',
+          'kw["pose"] = _build(Pose, {}, f"{where}.pose")'),),
+        "scene_from_dict rebuilds every object at the default pose",
+        _SCENES,
+    ),
+)
+
+
 def _copy_tree(dst: Path) -> None:
     for name in ("src", "tests"):
         shutil.copytree(ROOT / name, dst / name,
@@ -127,16 +287,20 @@ def _failed_tests(junit: Path) -> list[str]:
     return failed
 
 
-def run_mutant(mutant: Mutant, *, test_paths: list[str], python: str) -> dict:
+def run_mutant(mutant: Mutant | None, *, test_paths: list[str], python: str) -> dict:
+    """Run ``test_paths`` on a copy with ``mutant`` planted (``None``: the unmutated baseline)."""
     with tempfile.TemporaryDirectory(prefix="sf-mutant-") as tmp:
         work = Path(tmp)
         _copy_tree(work)
+        change = "(none)"
         try:
-            change = _plant(work, mutant)
+            if mutant is not None:
+                change = _plant(work, mutant)
         except LookupError as exc:
             return {"mutant": mutant, "change": str(exc), "killed_by": [], "seconds": 0.0}
+        # GL tests must run, not skip: a skipped test kills nothing
         env = dict(os.environ, PYTHONPATH=str(work / "src"), HYPOTHESIS_PROFILE="ci",
-                   NUMBA_CACHE_DIR=str(work / ".numba"))
+                   NUMBA_CACHE_DIR=str(work / ".numba"), STEREOFORGE_REQUIRE_GL="1")
         # make sure the copy (not the installed tree) is what gets imported
         where = subprocess.run([python, "-c", "import matcher; print(matcher.__file__)"],
                                cwd=work, env=env, capture_output=True, text=True)
@@ -158,19 +322,37 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("-k", default="", help="only mutants whose name contains this text")
     parser.add_argument("--list", action="store_true", help="list the mutants and exit")
-    parser.add_argument("--tests", nargs="*", default=["tests/matcher", "src/matcher"],
-                        help="test paths run against each mutant (default: the matcher tests)")
+    parser.add_argument("--under", action="append", default=[],
+                        help="only mutants of files under this path (repeatable), e.g. src/synth")
+    parser.add_argument("--tests", nargs="*", default=None,
+                        help="test paths run against every mutant (default: each mutant's own; "
+                             "the matcher tests for matcher mutants)")
+    parser.add_argument("--no-baseline", action="store_true",
+                        help="skip the run of each test set on the unmutated copy")
     args = parser.parse_args(argv)
-    chosen = [m for m in MUTANTS if args.k in m.name]
+    chosen = [m for m in MUTANTS if args.k in m.name
+              and (not args.under or any(m.path.startswith(u) for u in args.under))]
     if args.list:
         for m in chosen:
             print(f"- {m.name} ({m.path}): {m.why}")
         return 0
     python = sys.executable
+
+    def tests_of(m: Mutant) -> list[str]:
+        return list(args.tests or m.tests or ("tests/matcher", "src/matcher"))
+
+    if not args.no_baseline:
+        for tests in sorted({tuple(tests_of(m)) for m in chosen}):
+            print(f"baseline: {' '.join(tests)} ...", file=sys.stderr, flush=True)
+            base = run_mutant(None, test_paths=list(tests), python=python)
+            if base["killed_by"]:
+                print(f"the unmutated tree fails {' '.join(tests)}: {base['killed_by'][:5]}",
+                      file=sys.stderr)
+                return 2
     rows = []
     for m in chosen:
         print(f"planting: {m.name} ...", file=sys.stderr, flush=True)
-        rows.append(run_mutant(m, test_paths=args.tests, python=python))
+        rows.append(run_mutant(m, test_paths=tests_of(m), python=python))
     print("| mutant | file | change | killed | tests that kill it | s |")
     print("|---|---|---|---|---|---|")
     survivors = 0

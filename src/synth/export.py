@@ -24,7 +24,7 @@ import numpy as np
 from matcher.io import atomic_write_bytes, encode_png, format_kitti_calib, write_kitti, write_middlebury
 from scenes import SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
-from synth.formats import FORMATS
+from synth.formats import FORMATS, KITTI_ROOT
 from synth.pair import StereoPair
 from synth.preview import preview_image
 
@@ -32,8 +32,6 @@ __all__ = ["FORMATS", "KITTI_ROOT", "OutputDirError", "resolve_scene", "prepare_
            "staged_output_dir", "calib_for", "kitti_calib_for", "foreground_map", "write_pair",
            "save_pair"]
 
-#: Folder of a KITTI output that holds ``image_2/`` ... (KITTI's and RAFT-Stereo's ``training/``).
-KITTI_ROOT = "training"
 #: |d - d_plane| (px) below which a pixel lies on a plane object (the golden disparity tolerance).
 _ON_PLANE_PX = 1e-3
 

@@ -53,15 +53,16 @@ jpeg_quality = {choice = [0, 90]}
 MIDDLEBURY_FILES = {"im0.png", "im1.png", "im1E.png", "im1L.png", "disp0GT.pfm", "disp1GT.pfm",
                     "mask0nocc.png", "calib.txt",
                     "scene.json", "sample.json"}
+RECORD = "files.json"  # the dataset's completion record of a sample (not a sample file)
 
 
-def _tree(root: Path) -> dict[str, bytes]:
+def _tree(root: Path, *, records: bool = True) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file()}
+            if p.is_file() and (records or p.name != RECORD)}
 
 
-def _assert_same_tree(a: Path, b: Path) -> None:
-    ta, tb = _tree(a), _tree(b)
+def _assert_same_tree(a: Path, b: Path, *, records: bool = True) -> None:
+    ta, tb = _tree(a, records=records), _tree(b, records=records)
     assert sorted(ta) == sorted(tb)
     different = [k for k in ta if ta[k] != tb[k]]
     assert not different, different
@@ -88,7 +89,7 @@ def test_layout_and_manifest(reference, config_file):
     assert names == [".lock", *[f"{i:06d}" for i in range(12)], "dataset.json",
                      "manifest.csv", "manifest.jsonl"]
     for i in range(12):
-        assert {p.name for p in (reference / f"{i:06d}").iterdir()} == MIDDLEBURY_FILES
+        assert {p.name for p in (reference / f"{i:06d}").iterdir()} == MIDDLEBURY_FILES | {RECORD}
     header = json.loads((reference / "dataset.json").read_text())
     cfg = loads_config(CONFIG, source=str(config_file))
     assert header["config_hash"] == cfg.hash() and header["format"] == "middlebury"
@@ -135,7 +136,7 @@ def test_growing_count_extends_with_the_same_bytes(reference, config_file, tmp_p
 def test_render_from_manifest_reproduces_a_sample(reference, tmp_path):
     files = render_from_manifest(reference, 7, out=tmp_path / "one")
     assert {f.name for f in files} == MIDDLEBURY_FILES
-    _assert_same_tree(reference / "000007", tmp_path / "one")
+    _assert_same_tree(reference / "000007", tmp_path / "one", records=False)
 
 
 def test_another_config_or_format_is_refused(config_file, tmp_path):
@@ -222,7 +223,7 @@ def test_kitti_layout(config_file, tmp_path, renderer):
                                                                               "000001_10.png"]
     assert sorted(p.name for p in (out / "training" / "calib_cam_to_cam").iterdir()) == [
         "000000.txt", "000001.txt"]
-    assert {p.name for p in (out / "000001").iterdir()} == {"scene.json", "sample.json"}
+    assert {p.name for p in (out / "000001").iterdir()} == {"scene.json", "sample.json", RECORD}
     files = render_from_manifest(out, 1, out=tmp_path / "one")
     assert sorted(str(f.relative_to(tmp_path / "one")) for f in files) == sorted(
         [f"training/{s}/000001_10.png" for s in subs]
@@ -273,7 +274,7 @@ def _interrupt(config_file: Path, out: Path, tmp_path: Path, *, workers: int, si
     done = _complete(out)
     assert 3 <= len(done) < 12, done  # killed mid-way
     for name in done:  # every sample directory present is complete
-        assert {p.name for p in (out / name).iterdir()} == MIDDLEBURY_FILES
+        assert {p.name for p in (out / name).iterdir()} == MIDDLEBURY_FILES | {RECORD}
 
 
 @pytest.mark.gl
@@ -331,3 +332,137 @@ def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, mo
     dataset.produce_sample(plain, 0, renderer, tmp_path / "p", "middlebury")
     assert calls == [1]  # without a search the statistic is measured
     assert record["stats"]["edge_search_probes"] >= 1
+
+
+# --------------------------------------------------------------------------- resume that verifies
+def _copy(src: Path, dst: Path) -> Path:
+    import shutil
+
+    shutil.copytree(src, dst)
+    return dst
+
+
+@pytest.mark.gl
+def test_resume_renders_again_an_emptied_folder_and_a_truncated_file(reference, config_file,
+                                                                      tmp_path):
+    from synth.dataset.integrity import verify_dataset
+
+    out = _copy(reference, tmp_path / "ds")
+    for f in (out / "000003").iterdir():
+        f.unlink()  # an emptied sample folder: used to count as done, a hole in the manifest
+    image = out / "000005" / "im0.png"
+    image.write_bytes(image.read_bytes()[:1000])  # a truncated image: used to be kept
+    (out / "000008" / RECORD).unlink()  # no completion record: not done
+    problems = verify_dataset(out)
+    size = (reference / "000005" / "im0.png").stat().st_size
+    assert problems[:3] == [
+        f"000003: no completion record ({RECORD}); the sample is incomplete",
+        f"000005/im0.png: 1000 bytes, its record says {size} bytes (truncated or replaced)",
+        f"000008: no completion record ({RECORD}); the sample is incomplete"], problems
+    run = run_dataset(config_file, out=out, workers=1, progress=False)
+    assert (run.rendered, run.skipped) == (3, 9)
+    _assert_same_tree(reference, out)
+    assert verify_dataset(out, count=12) == []
+
+
+@pytest.mark.gl
+def test_same_size_corruption_is_left_to_verify(reference, config_file, tmp_path):
+    """Resume checks sizes only (cheap); --verify checks every SHA-256 and reports the rest."""
+    from synth.dataset.integrity import verify_dataset
+
+    out = _copy(reference, tmp_path / "ds")
+    disp = out / "000002" / "disp0GT.pfm"
+    data = bytearray(disp.read_bytes())
+    data[-1] ^= 0xFF
+    disp.write_bytes(bytes(data))
+    (out / "000004" / "notes.txt").write_text("mine")
+    (out / "stray.bin").write_bytes(b"x")
+    (out / ".000007.tmp-123").mkdir()
+    import shutil
+
+    shutil.rmtree(out / "000006")
+    assert run_dataset(config_file, out=out, count=3, progress=False).rendered == 0
+    assert verify_dataset(out, checksums=False) == [
+        "000004/notes.txt: extra file (not in 000004/files.json)",
+        "000006: missing (a hole: the dataset has samples after it)",
+        "stray.bin: extra file"]  # the stale .tmp dir was removed by the run
+    problems = verify_dataset(out, count=14)
+    assert problems == [
+        "000002/disp0GT.pfm: SHA-256 differs from its record (corrupt)",
+        "000004/notes.txt: extra file (not in 000004/files.json)",
+        "000006: missing (count is 14)", "000012: missing (count is 14)",
+        "000013: missing (count is 14)", "stray.bin: extra file"]
+    from click.testing import CliRunner
+
+    from synth.cli import main as cli
+
+    result = CliRunner().invoke(cli, ["dataset", "--verify", str(out), "--count", "14"])
+    assert result.exit_code == 1
+    assert result.output.splitlines() == [*problems, f"{out}: 6 problem(s)"]
+    ok = CliRunner().invoke(cli, ["dataset", "--verify", str(reference)])
+    assert ok.exit_code == 0 and ok.output.endswith("complete, every file matches its record\n")
+    (out / "manifest.jsonl").write_text("")
+    assert verify_dataset(out, checksums=False)[-1] == (
+        "manifest.jsonl: does not match the samples' sample.json (rerun the dataset command to "
+        "rewrite it)")
+
+
+_TORN = """
+import fnmatch, os, sys
+from synth.dataset.run import run_dataset
+real = os.replace
+def replace(src, dst, *args, **kwargs):
+    real(src, dst, *args, **kwargs)
+    if fnmatch.fnmatch(str(dst), sys.argv[4]):
+        os._exit(3)  # die between two files of one sample, as a kill -9 would
+os.replace = replace
+if __name__ == "__main__":
+    run_dataset(sys.argv[1], out=sys.argv[2], fmt=sys.argv[3], count=4, progress=False)
+"""
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("fmt, die_after, torn", [
+    ("middlebury", "*/.000002.tmp-*/disp0GT.pfm", 2),  # the 3rd file of sample 2, in its temp dir
+    ("kitti", "*/ds/training/image_3/000001_10.png", 1),  # sample 1: a file moved, others to go
+])
+def test_a_torn_sample_is_rendered_again_with_the_same_bytes(config_file, tmp_path, fmt,
+                                                             die_after, torn):
+    clean = tmp_path / "clean"
+    run_dataset(config_file, out=clean, fmt=fmt, count=4, progress=False)
+    out = tmp_path / "ds"
+    script = tmp_path / "torn.py"
+    script.write_text(_TORN)
+    died = subprocess.run([sys.executable, str(script), str(config_file), str(out), fmt,
+                           die_after], capture_output=True, text=True, timeout=300)
+    assert died.returncode == 3, died.stderr[-2000:]
+    assert not (out / "manifest.jsonl").exists()  # it died mid-run
+    run = run_dataset(config_file, out=out, fmt=fmt, count=4, progress=False)
+    assert (run.rendered, run.skipped) == (4 - torn, torn)
+    _assert_same_tree(clean, out)
+
+
+@pytest.mark.gl
+def test_kitti_records_list_the_images_outside_the_sample_folder(config_file, tmp_path,
+                                                                  renderer):
+    from synth.dataset.integrity import verify_dataset
+
+    out = tmp_path / "kitti"
+    run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
+    record = json.loads((out / "000001" / RECORD).read_text())
+    assert sorted(record["files"]) == sorted(
+        [f"training/{s}/000001_10.png"
+         for s in ("image_2", "image_3", "disp_occ_0", "disp_noc_0", "obj_map")]
+        + ["training/calib_cam_to_cam/000001.txt", "000001/scene.json", "000001/sample.json"])
+    clean = _tree(out)
+    image = out / "training" / "image_3" / "000001_10.png"
+    image.write_bytes(image.read_bytes()[:100])
+    (out / "training" / "disp_noc_0" / "000009_10.png").write_bytes(b"stray")
+    assert verify_dataset(out) == [
+        f"training/image_3/000001_10.png: 100 bytes, its record says "
+        f"{len(clean['training/image_3/000001_10.png'])} bytes (truncated or replaced)",
+        "training/disp_noc_0/000009_10.png: extra file (no sample's record lists it)"]
+    (out / "training" / "disp_noc_0" / "000009_10.png").unlink()
+    run = run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
+    assert (run.rendered, run.skipped) == (1, 1)
+    assert _tree(out) == clean

@@ -102,7 +102,8 @@ print(threading.active_count(), len(os.listdir("/proc/self/task")) - libraries)
 def test_the_fork_server_preload_opens_no_gl_and_starts_no_thread():
     out = subprocess.run([sys.executable, "-c", _PRELOAD], capture_output=True, text=True,
                          check=True).stdout.splitlines()
-    assert out[0] == str(sorted(["synth.dataset.engine", "synth.dataset.run", "synth.pair",
+    assert out[0] == str(sorted(["synth.dataset.guard", "synth.dataset.engine", "synth.dataset.run",
+                                 "synth.pair",
                                  "synth.dataset.warm"]))
     assert out[1] == "[]"  # nothing GL: a forked GL state would be unusable
     # one Python thread, and no OS thread beyond numpy's, SciPy's and OpenCV's BLAS pools

@@ -10,8 +10,8 @@ __all__ = ["dataset"]
 
 
 @click.command()
-@click.argument("config")
-@out_dir_option()
+@click.argument("config", required=False)
+@out_dir_option(required=False)
 @click.option("--count", default=None, type=click.IntRange(min=1),
               help="Number of pairs [default: the config's count].")
 @workers_option
@@ -19,12 +19,33 @@ __all__ = ["dataset"]
 @click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
 @format_option
 @backend_option
-def dataset(config, out, count, workers, engine, address, fmt, backend) -> None:
-    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name).
+@click.option("--verify", "verify_dir", default=None, metavar="DIR",
+              type=click.Path(exists=True, file_okay=False),
+              help="Check the dataset in DIR instead (sizes and SHA-256 of every file against "
+                   "the samples' records; holes up to --count; extra files; the manifest): one "
+                   "line per problem, exit 1 if any.")
+def dataset(config, out, count, workers, engine, address, fmt, backend, verify_dir) -> None:
+    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), or check
+    one with --verify DIR.
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
+    if verify_dir is not None:
+        if config is not None:
+            raise click.UsageError("--verify DIR checks an existing dataset: drop CONFIG")
+        from synth.dataset.integrity import verify_dataset
+
+        problems = verify_dataset(verify_dir, count=count)
+        for line in problems:
+            click.echo(line)
+        click.echo(f"{verify_dir}: {len(problems)} problem(s)" if problems else
+                   f"{verify_dir}: complete, every file matches its record")
+        raise SystemExit(1 if problems else 0)
+    if config is None or out is None:
+        raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
+                               "--out DIR, or --verify DIR" if config is None else
+                               "missing option '--out' (the dataset directory)")
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 

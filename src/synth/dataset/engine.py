@@ -33,7 +33,10 @@ from __future__ import annotations
 import ctypes
 import multiprocessing
 import os
+import signal
 import sys
+import threading
+import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import (
     FIRST_COMPLETED,
@@ -43,7 +46,8 @@ from concurrent.futures import (
 )
 from typing import Any, Protocol
 
-__all__ = ["ENGINES", "Task", "run_tasks", "ray_available", "start_worker_server"]
+__all__ = ["ENGINES", "Task", "run_tasks", "ray_available", "start_worker_server",
+           "die_with_parent"]
 
 ENGINES = ("local", "ray")
 
@@ -97,9 +101,70 @@ def _tune_malloc() -> None:
         mallopt(param, value)
 
 
+# --------------------------------------------------------------------------- process lifetime
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+_WATCHDOG_SECONDS = 0.5
+
+
+def _set_pdeathsig(sig: int) -> bool:
+    """``prctl(PR_SET_PDEATHSIG, sig)``: whether it took effect (Linux only)."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):  # pragma: no cover - not glibc/musl
+        return False
+    prctl.restype = ctypes.c_int
+    return prctl(_PR_SET_PDEATHSIG, ctypes.c_ulong(sig), ctypes.c_ulong(0), ctypes.c_ulong(0),
+                 ctypes.c_ulong(0)) == 0
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - someone else's process took the pid
+        return True
+    return True
+
+
+def _watchdog(parent: int, also: int | None) -> None:
+    while os.getppid() == parent and (also is None or _alive(also)):
+        time.sleep(_WATCHDOG_SECONDS)
+    os._exit(1)
+
+
+def die_with_parent(*, also: int | None = None, watchdog: bool = True) -> bool:
+    """Make this process end (SIGKILL) when its parent process ends, however the parent ends.
+
+    On Linux this is ``prctl(PR_SET_PDEATHSIG, SIGKILL)``: the kernel kills this process when
+    the *thread* that forked it exits, so a process started from a short-lived thread dies
+    with that thread. Where ``prctl`` is unavailable and ``watchdog`` is true, a daemon thread
+    polls every 0.5 s whether the parent (``os.getppid()``) changed and exits then (a process
+    that forks must not start it: forking a multi-threaded process is unsafe). If ``also``
+    (a pid, e.g. the main process of a chain parent -> fork server -> worker) no longer runs,
+    or the parent ended before the call, this process exits at once (status 1).
+
+    Returns
+    -------
+    bool
+        Whether the kernel will send the signal (``False``: the watchdog, or nothing).
+    """
+    parent = os.getppid()
+    armed = _set_pdeathsig(signal.SIGKILL)
+    if (also is not None and not _alive(also)) or os.getppid() != parent:
+        os._exit(1)  # the parent (or the chain's head) ended before we could watch it
+    if not armed and watchdog:
+        threading.Thread(target=_watchdog, args=(parent, also), daemon=True,
+                         name="die-with-parent").start()
+    return armed
+
+
 # --------------------------------------------------------------------------- local engine
 _WORKER: dict[str, Any] = {}
 _WARM_MODULE = "synth.dataset.warm"
+_GUARD_MODULE = "synth.dataset.guard"  # first: the server dies with its parent from the start
 
 
 def _threads_per_worker(workers: int) -> int | None:
@@ -109,7 +174,7 @@ def _threads_per_worker(workers: int) -> int | None:
 
 def _server_modules(modules: Sequence[str]) -> list[str]:
     """Modules the fork server imports once for every worker it forks (none of them GL)."""
-    return [__name__, *modules, _WARM_MODULE]
+    return [_GUARD_MODULE, __name__, *modules, _WARM_MODULE]
 
 
 def _preload(task: Task) -> list[str]:
@@ -151,8 +216,11 @@ def start_worker_server(modules: Sequence[str] = ()) -> None:
         forkserver.ensure_running()
 
 
-def _init_worker(task: Task, threads: int | None) -> None:
-    """Worker set-up that needs no GL: thread counts, malloc; the renderer opens on first use."""
+def _init_worker(task: Task, threads: int | None, main_pid: int) -> None:
+    """Worker set-up that needs no GL: lifetime, thread counts, malloc; the renderer opens on
+    first use. The worker dies with its parent (the fork server, or the main process under
+    ``spawn``), and at once if the main process ``main_pid`` already ended."""
+    die_with_parent(also=main_pid)
     if threads is not None:
         import cv2  # its thread pool too: workers already share the cores
         import numba
@@ -197,7 +265,7 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
 
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=_mp_context(task),
                                initializer=_init_worker,
-                               initargs=(task, _threads_per_worker(workers)))
+                               initargs=(task, _threads_per_worker(workers), os.getpid()))
     probe = ThreadPoolExecutor(max_workers=1)
     try:
         # the probe (a subprocess; OpenGL stays unimported here) runs while the workers start

@@ -6,8 +6,8 @@ Layout of a dataset directory ``out/``::
     manifest.jsonl      one JSON record per complete sample, sorted by index
     manifest.csv        the same records, flattened (``params.*``, ``stats.*`` columns)
     000000/             sample 0: im0.png im1.png disp0.pfm disp1.pfm mask0nocc.png calib.txt
-                        scene.json sample.json [preview.png]          (fmt="middlebury")
-    000000/             scene.json sample.json; the images go to       (fmt="kitti")
+                        scene.json sample.json [preview.png] files.json  (fmt="middlebury")
+    000000/             scene.json sample.json files.json; the images go to (fmt="kitti")
     training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
     training/calib_cam_to_cam/                                    000000.txt
     .lock               held (flock) by the run writing the directory
@@ -17,9 +17,11 @@ Guarantees (see ``docs/datasets.md``):
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
   :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
   workers, the engine or the order;
-- a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to ``NNNNNN/`` when complete: the
-  directory existing *is* the completion marker. A run killed at any point and restarted skips
-  the complete samples, redoes the others and ends with the same bytes as an uninterrupted run;
+- a sample is written into ``.NNNNNN.tmp-<pid>/``, its completion record ``files.json`` (every
+  file with size and SHA-256, :mod:`synth.dataset.integrity`) last, and renamed to ``NNNNNN/``.
+  A run killed at any point and restarted skips the samples whose record exists and whose files
+  have the recorded sizes, renders the others again (an emptied folder, a truncated file) and
+  ends with the same bytes as an uninterrupted run;
 - a directory made by another configuration (or format) is refused (hash in ``dataset.json``);
   ``count`` is not part of the hash, so a dataset can be extended;
 - a failing sample leaves no files and raises :exc:`SampleError` naming its index and seed;
@@ -31,10 +33,8 @@ invariants (the folder rename is the completion marker), which are easier to kee
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import fcntl
-import io
 import json
 import os
 import re
@@ -51,7 +51,10 @@ from synth._json import read_json_object
 from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
-from synth.export import FORMATS, KITTI_ROOT, prepare_output_dir, write_pair
+from synth.dataset.integrity import RECORD, completion_record, sample_problems
+from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
+from synth.export import FORMATS, prepare_output_dir, write_pair
+from synth.formats import KITTI_ROOT
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
 from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
@@ -63,13 +66,9 @@ __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_s
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
 #: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
 _FORMAT_VERSION = 2
-_SAMPLE_DIR = re.compile(r"^\d{6}$")
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _PHOTOMETRIC_STREAM = 3
-_RECORD_KEYS = {"index": int, "seed": int, "dir": str, "params": dict, "stats": dict}
 _HEADER_KEYS = {"config": dict, "format": str}
-_MODIFIED = ("the dataset directory was modified or was not made by stereoforge; delete the "
-             "damaged file's sample folder (or the whole directory) and run again")
 
 
 class SampleError(StereoforgeError, RuntimeError):
@@ -193,11 +192,22 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
     try:
         os.rename(tmp, final)
     except OSError:
-        if not (final / "sample.json").is_file():
+        if not (final / RECORD).is_file():
             raise
         shutil.rmtree(tmp, ignore_errors=True)  # finished meanwhile by another process: same bytes
     # No fsync of `out`: the files are not fsynced either (see docs/datasets.md), so making the
     # rename durable would buy nothing after a power loss, and it costs ~3 ms per sample.
+
+
+def _write_record(tmp: Path, index: int, fmt: str) -> None:
+    """The sample's completion record, last, listing its files by their final paths."""
+    name = f"{index:06d}"
+    files = []
+    for path in sorted(p for p in tmp.rglob("*") if p.is_file()):
+        rel = path.relative_to(tmp)
+        in_dataset = str(rel) if fmt == "kitti" and rel.parts[0] == KITTI_ROOT else f"{name}/{rel}"
+        files.append((in_dataset, path))
+    atomic_write_bytes(tmp / RECORD, completion_record(index, files), fsync=False)
 
 
 class SampleTask:
@@ -226,6 +236,7 @@ class SampleTask:
         try:
             shutil.rmtree(tmp, ignore_errors=True)
             record = produce_sample(self.config, index, renderer, tmp, self.fmt)
+            _write_record(tmp, index, self.fmt)
             _commit(tmp, self.out, index, self.fmt)
             return record
         except BaseException as exc:
@@ -237,47 +248,11 @@ class SampleTask:
 
 
 # --------------------------------------------------------------------------- manifest
-def read_manifest(dataset_dir: str | Path) -> list[dict]:
-    """Records of the complete samples of a dataset, sorted by index (from ``NNNNNN/sample.json``).
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> read_manifest(tempfile.mkdtemp())
-    []
-    """
-    root = Path(dataset_dir)
-    records = []
-    for d in root.iterdir():
-        if d.is_dir() and _SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():
-            records.append(read_json_object(d / "sample.json", what="sample record",
-                                            keys=_RECORD_KEYS, fix=_MODIFIED))
-    return sorted(records, key=lambda r: r["index"])
-
-
-def _cell(value: Any) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return repr(value) if isinstance(value, float) else str(value)
-
-
 def _write_manifest(out: Path) -> list[dict]:
     records = read_manifest(out)
-    jsonl = "".join(json.dumps(r, sort_keys=True) + "\n" for r in records)
-    atomic_write_bytes(out / "manifest.jsonl", jsonl.encode(), fsync=False)
-    params = sorted({k for r in records for k in r["params"]})
-    stats = sorted({k for r in records for k in r["stats"]})
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["index", "seed", "dir", *(f"params.{k}" for k in params),
-                     *(f"stats.{k}" for k in stats)])
-    for r in records:
-        writer.writerow([r["index"], r["seed"], r["dir"],
-                         *(_cell(r["params"].get(k)) for k in params),
-                         *(_cell(r["stats"].get(k)) for k in stats)])
-    atomic_write_bytes(out / "manifest.csv", buf.getvalue().encode(), fsync=False)
+    jsonl, table = manifest_bytes(records)
+    atomic_write_bytes(out / "manifest.jsonl", jsonl, fsync=False)
+    atomic_write_bytes(out / "manifest.csv", table, fsync=False)
     return records
 
 
@@ -294,7 +269,7 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
     header = _dataset_header(config, fmt)
     path = out / "dataset.json"
     if path.is_file():
-        old = read_json_object(path, what="dataset header", fix=_MODIFIED)
+        old = read_json_object(path, what="dataset header", fix=MODIFIED_FIX)
         if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
             raise DatasetError(
                 f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
@@ -407,7 +382,11 @@ def run_dataset(
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
                 shutil.rmtree(stale, ignore_errors=True)
-        todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]
+        # a sample is done when its completion record exists and its files have the recorded
+        # sizes (checksums: verify_dataset, `stereoforge dataset --verify`); else render again
+        todo = [i for i in range(count) if sample_problems(out, i)]
+        for i in todo:
+            shutil.rmtree(out / f"{i:06d}", ignore_errors=True)
         task = SampleTask(cfg, out, fmt, backend)
         bar = progress_bar(total=len(todo), desc=f"dataset {cfg.name}", unit="pair",
                            enabled=progress)
@@ -461,14 +440,14 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     path = root / "dataset.json"
     if not path.is_file():
         raise DatasetError(f"{root} has no dataset.json; pass a directory made by run_dataset")
-    header = read_json_object(path, what="dataset header", keys=_HEADER_KEYS, fix=_MODIFIED)
+    header = read_json_object(path, what="dataset header", keys=_HEADER_KEYS, fix=MODIFIED_FIX)
     cfg = config_from_dict(header["config"], source=str(path))
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
         raise ParameterError(f"index must be an int in [0, 999999], got {index!r}")
     record = root / f"{index:06d}" / "sample.json"
     seed = sample_seed(cfg.seed, index)
     if record.is_file() and read_json_object(record, what="sample record", keys={"seed": int},
-                                             fix=_MODIFIED)["seed"] != seed:
+                                             fix=MODIFIED_FIX)["seed"] != seed:
         raise DatasetError(f"{record} has another seed than sample {index} of {path}; the "
                            "dataset directory was modified")
     dest = prepare_output_dir(out, overwrite=overwrite)

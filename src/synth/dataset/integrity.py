@@ -1,0 +1,153 @@
+"""Completion records of dataset samples, and the check of a whole dataset against them.
+
+A sample is complete when its record ``NNNNNN/files.json`` exists and every file it lists has
+the listed size (and, when checked, SHA-256). The record is written last, inside the sample's
+temporary directory, which the final rename puts into place: it never lists a file that was not
+fully written. Paths in a record are relative to the dataset directory (``000003/im0.png``; the
+KITTI layout keeps its images outside the sample directory: ``training/image_2/000003_10.png``)::
+
+    {"files": {"000003/calib.txt": {"bytes": 190, "sha256": "9f1c..."}, ...}, "index": 3}
+
+A resumed run checks sizes (cheap: one ``stat`` per file) and renders again every sample whose
+record is missing, unreadable or contradicted; :func:`verify_dataset` (``stereoforge dataset
+--verify DIR``) also checks the SHA-256 of every file and reports holes and extra files.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+from synth.dataset.manifest import SAMPLE_DIR, manifest_bytes, read_manifest
+from synth.formats import KITTI_ROOT
+
+__all__ = ["RECORD", "completion_record", "sample_problems", "verify_dataset"]
+
+#: Name of the completion record inside a sample directory.
+RECORD = "files.json"
+_TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
+_TOP_FILES = ("dataset.json", "manifest.jsonl", "manifest.csv", ".lock")
+
+
+def _sha256(path: Path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
+    """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs."""
+    entries = {name: {"bytes": path.stat().st_size, "sha256": _sha256(path)}
+               for name, path in sorted(files)}
+    return (json.dumps({"files": entries, "index": index}, indent=2, sort_keys=True)
+            + "\n").encode()
+
+
+def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:
+    """The files a sample's record lists, or ``None`` and why there is no usable record."""
+    path = root / f"{index:06d}" / RECORD
+    try:
+        record = json.loads(path.read_bytes())
+        files = record["files"]
+        if record["index"] != index or not isinstance(files, dict) or not all(
+                isinstance(e, dict) and isinstance(e.get("bytes"), int)
+                and isinstance(e.get("sha256"), str) for e in files.values()):
+            raise ValueError("unexpected content")
+    except FileNotFoundError:
+        return None, f"{path.parent.name}: no completion record ({RECORD}); the sample is " \
+                     "incomplete"
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return None, f"{path}: unreadable completion record ({type(exc).__name__}: {exc})"
+    return files, None
+
+
+def sample_problems(root: Path, index: int, *, checksums: bool = False) -> list[str]:
+    """What is wrong with sample ``index`` of the dataset in ``root`` (empty: complete).
+
+    Sizes are always checked; the SHA-256 of every file too when ``checksums``.
+    """
+    if not (root / f"{index:06d}").is_dir():
+        return [f"{index:06d}: missing"]
+    files, why = _listed(root, index)
+    if files is None:
+        return [why]
+    problems = []
+    for name, entry in files.items():
+        path = root / name
+        try:
+            size = path.stat().st_size
+        except OSError:
+            problems.append(f"{name}: missing (listed in {index:06d}/{RECORD})")
+            continue
+        if size != entry["bytes"]:
+            problems.append(f"{name}: {size} bytes, its record says {entry['bytes']} bytes "
+                            "(truncated or replaced)")
+        elif checksums and _sha256(path) != entry["sha256"]:
+            problems.append(f"{name}: SHA-256 differs from its record (corrupt)")
+    return problems
+
+
+def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
+                   checksums: bool = True) -> list[str]:
+    """Problems of a whole dataset, one line each: holes, incomplete or corrupt samples, extra
+    files, a stale manifest. Empty when the dataset is whole.
+
+    Parameters
+    ----------
+    dataset_dir : str or Path
+        A directory made by :func:`synth.dataset.run.run_dataset`.
+    count : int, optional
+        Samples ``0 .. count - 1`` are expected (default: up to the highest index present).
+    checksums : bool
+        Also compare the SHA-256 of every file with its record (default); else sizes only.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> verify_dataset(tempfile.mkdtemp())[0]
+    '...: no dataset.json; not a dataset directory (made by run_dataset)'
+    """
+    root = Path(dataset_dir)
+    if not (root / "dataset.json").is_file():
+        return [f"{root}: no dataset.json; not a dataset directory (made by run_dataset)"]
+    present = sorted(int(d.name) for d in root.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name))
+    last = max(present, default=-1) if count is None else count - 1
+    problems: list[str] = []
+    listed: set[str] = set()
+    for index in sorted(set(range(last + 1)) | set(present)):
+        found = sample_problems(root, index, checksums=checksums)
+        if found == [f"{index:06d}: missing"]:
+            found = [f"{index:06d}: missing (a hole: the dataset has samples after it)"
+                     if count is None else f"{index:06d}: missing (count is {count})"]
+        problems += found
+        files, _ = _listed(root, index) if index in present else (None, None)
+        names = set(files or ())
+        listed |= names
+        if files is not None:
+            folder = root / f"{index:06d}"
+            problems += [f"{p.relative_to(root)}: extra file (not in {index:06d}/{RECORD})"
+                         for p in sorted(folder.rglob("*")) if p.is_file() and p.name != RECORD
+                         and str(p.relative_to(root)) not in names]
+    if (root / KITTI_ROOT).is_dir():  # the KITTI layout's images, beside the sample directories
+        problems += [f"{rel}: extra file (no sample's record lists it)"
+                     for rel in (str(p.relative_to(root))
+                                 for p in sorted((root / KITTI_ROOT).rglob("*")) if p.is_file())
+                     if rel not in listed]
+    for entry in sorted(root.iterdir()):
+        if entry.name in _TOP_FILES or SAMPLE_DIR.match(entry.name) or (
+                entry.name == KITTI_ROOT and entry.is_dir()):
+            continue
+        if _TMP_DIR.match(entry.name):
+            problems.append(f"{entry.name}: stale temporary directory of an interrupted run "
+                            "(the next run removes it)")
+        else:
+            problems.append(f"{entry.name}: extra {'directory' if entry.is_dir() else 'file'}")
+    jsonl, table = manifest_bytes(read_manifest(root))
+    for name, want in (("manifest.jsonl", jsonl), ("manifest.csv", table)):
+        path = root / name
+        if not path.is_file() or path.read_bytes() != want:
+            problems.append(f"{name}: does not match the samples' sample.json (rerun the "
+                            "dataset command to rewrite it)")
+    return problems
