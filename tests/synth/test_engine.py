@@ -160,7 +160,8 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
                        'base = {choice = ["fronto_plane", "flying"]}\noccluders = 1\n'
                        "[photometric]\nnoise_sigma = 2.0\n")
     run_dataset(cfg, out=tmp_path / "local", workers=1, progress=False)
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+             _node_ip_address="127.0.0.1")  # a new local Ray, on the loopback only
     try:
         run_dataset(cfg, out=tmp_path / "ray", workers=2, engine="ray", progress=False)
         # a failing sample comes back as the SampleError naming it (far = 5 m < flying's wall)
@@ -208,3 +209,30 @@ def test_an_early_started_server_forks_the_workers(tmp_path):
     assert len(res["servers"]) == 1  # started by start_worker_server, before any run
     assert res["parents"] == res["servers"]  # both workers were forked by it
     assert res["squares"] == [0, 1, 4, 9]
+
+
+def test_an_unreachable_ray_address_fails_fast_with_the_address(tmp_path, require_or_skip):
+    """`--engine ray --address 127.0.0.1:1` used to wait for ever."""
+    import time
+
+    from click.testing import CliRunner
+
+    from synth.cli import main
+
+    _require_ray(require_or_skip)
+    t0 = time.monotonic()
+    result = CliRunner().invoke(main, ["dataset", "planes", "--count", "2", "--engine", "ray",
+                                       "--address", "127.0.0.1:1", "--out", str(tmp_path / "o")])
+    assert time.monotonic() - t0 < 60
+    assert result.exit_code == 1, result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert len(errors) == 1 and "no Ray cluster answers at 127.0.0.1:1" in errors[0]
+    assert "Traceback" not in result.output
+
+
+def test_ray_address_forms():
+    from synth.dataset.engine import check_ray_address
+
+    assert check_ray_address("auto") is None and check_ray_address("ray://head:10001") is None
+    with pytest.raises(ValueError, match="expected HOST:PORT of a Ray head"):
+        check_ray_address("127.0.0.1")

@@ -46,8 +46,8 @@ from concurrent.futures import (
 )
 from typing import Any, Protocol
 
-__all__ = ["ENGINES", "Task", "run_tasks", "ray_available", "start_worker_server",
-           "die_with_parent"]
+__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_ray_address", "die_with_parent",
+           "run_tasks", "ray_available", "start_worker_server"]
 
 ENGINES = ("local", "ray")
 
@@ -298,8 +298,49 @@ class _RayWorker:
         return index, self.task(index, self.renderer)
 
 
+#: Seconds a Ray cluster address may take to answer before the run gives up.
+RAY_CONNECT_TIMEOUT_S = 30.0
+
+
+def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -> str | None:
+    """Check that the Ray cluster at ``address`` answers within ``timeout`` s; return its host.
+
+    ``address`` is ``HOST:PORT`` (the head's GCS), or ``auto``/``ray://...``, which Ray resolves
+    itself (``None`` is returned for those). An address that does not answer raises
+    :class:`~stereoforge.errors.BackendError` naming it, instead of Ray waiting for ever.
+
+    Examples
+    --------
+    >>> check_ray_address("127.0.0.1:1", timeout=2)
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.BackendError: engine='ray': no Ray cluster answers at 127.0.0.1:1 ...
+    """
+    import socket
+
+    from stereoforge.errors import BackendError
+
+    if address == "auto" or "://" in address:
+        return None
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        raise ValueError(f"address: expected HOST:PORT of a Ray head (e.g. 127.0.0.1:6379), "
+                         f"'auto' or a ray:// URL, got {address!r}")
+    host = host.strip("[]")
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout):
+            pass
+    except OSError as exc:
+        raise BackendError(
+            f"engine='ray': no Ray cluster answers at {address} ({exc.strerror or exc} within "
+            f"{timeout:g} s); start one (ray start --head --node-ip-address=127.0.0.1) or fix "
+            "--address") from None
+    return host
+
+
 def _run_ray(task: Task, indices: Sequence[int], workers: int,
-             address: str | None) -> Iterator[tuple[int, dict]]:
+             address: str | None, timeout: float = RAY_CONNECT_TIMEOUT_S
+             ) -> Iterator[tuple[int, dict]]:
     try:
         import ray
         from ray.util import ActorPool
@@ -310,8 +351,12 @@ def _run_ray(task: Task, indices: Sequence[int], workers: int,
     if started:
         kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
         if address is None:
-            kwargs["num_cpus"] = workers
-        ray.init(address=address, **kwargs)
+            # a new local Ray of our own (not whatever cluster runs on this machine), on the
+            # loopback only (never the machine's interface address)
+            kwargs.update(num_cpus=workers, _node_ip_address="127.0.0.1")
+        else:
+            check_ray_address(address, timeout=timeout)
+        ray.init(address=address or "local", **kwargs)
     actors: list[Any] = []
     try:
         actor_cls = ray.remote(num_cpus=1)(_RayWorker)
