@@ -26,6 +26,9 @@ order sort). Engines:
   local Ray started with ``num_cpus=workers`` (and shut down after). Needs ``pip install ray``.
 
 The first failing task stops the run: pending tasks are cancelled and its exception is raised.
+
+One module on purpose: both engines run the same task protocol, and the worker start-up,
+process lifetime and result order they share are easier to keep identical in one place.
 """
 
 from __future__ import annotations
