@@ -55,6 +55,10 @@ MIDDLEBURY_FILES = {"im0.png", "im1.png", "im1E.png", "im1L.png", "disp0GT.pfm",
                     "scene.json", "sample.json"}
 
 
+def _sample(root: Path, i: int, fmt: str = "middlebury") -> Path:
+    return root / ("MiddEval3/trainingF" if fmt == "middlebury" else "training/samples") / f"{i:06d}"
+
+
 def _tree(root: Path) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
             if p.is_file()}
@@ -85,11 +89,16 @@ def reference(config_file, tmp_path_factory, renderer) -> Path:
 @pytest.mark.gl
 def test_layout_and_manifest(reference, config_file):
     names = sorted(p.name for p in reference.iterdir())
-    assert names == [".lock", *[f"{i:06d}" for i in range(12)], "dataset.json",
-                     "manifest.csv", "manifest.jsonl"]
+    assert names == [".lock", "MiddEval3", "dataset.json", "manifest.csv", "manifest.jsonl"]
+    assert sorted(p.name for p in (reference / "MiddEval3").iterdir()) == [
+        "official_train.txt", "trainingF"]
+    scenes = [f"{i:06d}" for i in range(12)]
+    assert sorted(p.name for p in (reference / "MiddEval3" / "trainingF").iterdir()) == scenes
+    assert (reference / "MiddEval3" / "official_train.txt").read_text().splitlines() == scenes
     for i in range(12):
-        assert {p.name for p in (reference / f"{i:06d}").iterdir()} == MIDDLEBURY_FILES
+        assert {p.name for p in _sample(reference, i).iterdir()} == MIDDLEBURY_FILES
     header = json.loads((reference / "dataset.json").read_text())
+    assert header["layout"] == 2
     cfg = loads_config(CONFIG, source=str(config_file))
     assert header["config_hash"] == cfg.hash() and header["format"] == "middlebury"
     lines = (reference / "manifest.jsonl").read_text().splitlines()
@@ -127,7 +136,7 @@ def test_growing_count_extends_with_the_same_bytes(reference, config_file, tmp_p
     second = run_dataset(config_file, out=out, count=5, workers=1, progress=False)
     assert (second.rendered, second.skipped) == (2, 3)
     for i in range(5):
-        _assert_same_tree(reference / f"{i:06d}", out / f"{i:06d}")
+        _assert_same_tree(_sample(reference, i), _sample(out, i))
     assert [r["index"] for r in read_manifest(out)] == list(range(5))
 
 
@@ -135,7 +144,7 @@ def test_growing_count_extends_with_the_same_bytes(reference, config_file, tmp_p
 def test_render_from_manifest_reproduces_a_sample(reference, tmp_path):
     files = render_from_manifest(reference, 7, out=tmp_path / "one")
     assert {f.name for f in files} == MIDDLEBURY_FILES
-    _assert_same_tree(reference / "000007", tmp_path / "one")
+    _assert_same_tree(_sample(reference, 7), tmp_path / "one")
 
 
 def test_another_config_or_format_is_refused(config_file, tmp_path):
@@ -205,8 +214,9 @@ def test_a_failing_sample_leaves_no_files_and_names_its_index_and_seed(tmp_path,
         run_dataset(cfg, out=out, workers=1, progress=False)
     assert "far" in str(e.value) and "render_from_manifest" in str(e.value)
     names = sorted(p.name for p in out.iterdir())
-    assert names == [".lock", *[f"{i:06d}" for i in range(bad)], "dataset.json",
-                     "manifest.csv", "manifest.jsonl"]
+    assert names == [".lock", "MiddEval3", "dataset.json", "manifest.csv", "manifest.jsonl"]
+    assert sorted(p.name for p in (out / "MiddEval3" / "trainingF").iterdir()) == [
+        f"{i:06d}" for i in range(bad)]
     assert len(read_manifest(out)) == bad
     with pytest.raises(SampleError, match=rf"sample {bad} \(seed {sample_seed(11, bad)}\)"):
         render_from_manifest(out, bad, out=tmp_path / "again")
@@ -222,7 +232,10 @@ def test_kitti_layout(config_file, tmp_path, renderer):
                                                                               "000001_10.png"]
     assert sorted(p.name for p in (out / "training" / "calib_cam_to_cam").iterdir()) == [
         "000000.txt", "000001.txt"]
-    assert {p.name for p in (out / "000001").iterdir()} == {"scene.json", "sample.json"}
+    assert {p.name for p in _sample(out, 1, "kitti").iterdir()} == {"scene.json", "sample.json"}
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "dataset.json", "manifest.csv",
+                                                     "manifest.jsonl", "training"]
+    assert [r["index"] for r in read_manifest(out)] == [0, 1]
     files = render_from_manifest(out, 1, out=tmp_path / "one")
     assert sorted(str(f.relative_to(tmp_path / "one")) for f in files) == sorted(
         [f"training/{s}/000001_10.png" for s in subs]
@@ -246,8 +259,9 @@ if __name__ == "__main__":
 
 
 def _complete(out: Path) -> list[str]:
-    return sorted(p.name for p in out.iterdir() if p.is_dir() and p.name.isdigit()) \
-        if out.exists() else []
+    parent = out / "MiddEval3" / "trainingF"
+    return sorted(p.name for p in parent.iterdir() if p.is_dir() and p.name.isdigit()) \
+        if parent.exists() else []
 
 
 def _interrupt(config_file: Path, out: Path, tmp_path: Path, *, workers: int, sig: int) -> None:
@@ -273,7 +287,7 @@ def _interrupt(config_file: Path, out: Path, tmp_path: Path, *, workers: int, si
     done = _complete(out)
     assert 3 <= len(done) < 12, done  # killed mid-way
     for name in done:  # every sample directory present is complete
-        assert {p.name for p in (out / name).iterdir()} == MIDDLEBURY_FILES
+        assert {p.name for p in (out / "MiddEval3" / "trainingF" / name).iterdir()} == MIDDLEBURY_FILES
 
 
 @pytest.mark.gl
@@ -331,3 +345,52 @@ def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, mo
     dataset.produce_sample(plain, 0, renderer, tmp_path / "p", "middlebury")
     assert calls == [1]  # without a search the statistic is measured
     assert record["stats"]["edge_search_probes"] >= 1
+
+
+# --------------------------------------------------------------------------- layout 1 -> 2
+def _to_layout_1(src: Path, dst: Path) -> None:
+    """``src`` (layout 2) as stereoforge wrote it before: sample folders at the root."""
+    import shutil
+
+    shutil.copytree(src, dst)
+    for d in sorted((dst / "MiddEval3" / "trainingF").iterdir()):
+        os.replace(d, dst / d.name)
+    shutil.rmtree(dst / "MiddEval3")
+    header = json.loads((dst / "dataset.json").read_text())
+    del header["layout"]
+    (dst / "dataset.json").write_text(json.dumps(header, indent=2, sort_keys=True) + "\n")
+
+
+@pytest.mark.gl
+def test_a_layout_1_dataset_is_refused_then_upgraded_to_the_same_bytes(reference, config_file,
+                                                                         tmp_path):
+    from click.testing import CliRunner
+
+    from synth.cli import main
+    from synth.dataset.layout import upgrade_dataset
+
+    old = tmp_path / "old"
+    _to_layout_1(reference, old)
+    for call in (lambda: run_dataset(config_file, out=old, progress=False),
+                 lambda: read_manifest(old),
+                 lambda: render_from_manifest(old, 1, out=tmp_path / "one")):
+        with pytest.raises(DatasetError, match=rf"previous layout .*`stereoforge dataset "
+                                               rf"--upgrade {old}`"):
+            call()
+    refused = CliRunner().invoke(main, ["dataset", str(config_file), "--out", str(old)])
+    assert refused.exit_code != 0
+    assert refused.output.strip().splitlines()[-1].startswith("Error: ")
+    assert f"stereoforge dataset --upgrade {old}" in refused.output
+    assert "Traceback" not in refused.output
+    # an upgrade interrupted after moving 5 samples: the rerun finishes it
+    (old / "MiddEval3" / "trainingF").mkdir(parents=True)
+    for i in range(5):
+        os.replace(old / f"{i:06d}", _sample(old, i))
+    done = CliRunner().invoke(main, ["dataset", "--upgrade", str(old)])
+    assert done.exit_code == 0, done.output
+    assert "7 sample folders moved" in done.output
+    _assert_same_tree(reference, old)
+    assert upgrade_dataset(old) == 0  # idempotent
+    again = run_dataset(config_file, out=old, progress=False)
+    assert (again.rendered, again.skipped) == (0, 12)
+    _assert_same_tree(reference, old)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from synth.cli.options import backend_option, engine_option, fail, format_option, out_dir_option, workers_option
@@ -10,8 +12,8 @@ __all__ = ["dataset"]
 
 
 @click.command()
-@click.argument("config")
-@out_dir_option()
+@click.argument("config", required=False)
+@out_dir_option(required=False)
 @click.option("--count", default=None, type=click.IntRange(min=1),
               help="Number of pairs [default: the config's count].")
 @workers_option
@@ -19,12 +21,29 @@ __all__ = ["dataset"]
 @click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
 @format_option
 @backend_option
-def dataset(config, out, count, workers, engine, address, fmt, backend) -> None:
+@click.option("--upgrade", "upgrade", default=None, metavar="DIR",
+              type=click.Path(file_okay=False, path_type=Path),
+              help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
+                   "in place to this one (MiddEval3/trainingF/, training/samples/); no CONFIG.")
+def dataset(config, out, count, workers, engine, address, fmt, backend, upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name).
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
+    if upgrade is not None:
+        if config is not None or out is not None:
+            fail(ValueError("--upgrade DIR takes no CONFIG and no --out (it converts DIR in place)"))
+        from synth.dataset.layout import upgrade_dataset
+
+        try:
+            moved = upgrade_dataset(upgrade)
+        except ValueError as exc:
+            fail(exc)
+        click.echo(f"{upgrade}: {moved} sample folders moved; layout is current")
+        return
+    if config is None or out is None:
+        fail(ValueError("give CONFIG and --out DIRECTORY (or --upgrade DIR)"))
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 

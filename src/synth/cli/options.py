@@ -90,9 +90,11 @@ def overwrite_option(f: Callable[..., Any]) -> Callable[..., Any]:
                         help="Write into a non-empty output directory.")(f)
 
 
-def out_dir_option(*, default: str | None = None, help: str | None = None) -> _Decorator:
-    """``--out DIRECTORY``: required unless a default is given."""
-    return click.option("--out", "out", required=default is None, default=default,
+def out_dir_option(*, default: str | None = None, help: str | None = None,
+                   required: bool | None = None) -> _Decorator:
+    """``--out DIRECTORY``: required unless a default is given (or ``required=False``)."""
+    return click.option("--out", "out", required=default is None if required is None else required,
+                        default=default,
                         show_default=default is not None, help=help,
                         type=click.Path(file_okay=False, path_type=Path))
 

@@ -5,9 +5,10 @@ Layout of a dataset directory ``out/``::
     dataset.json        configuration (canonical), its hash, format, Canny settings
     manifest.jsonl      one JSON record per complete sample, sorted by index
     manifest.csv        the same records, flattened (``params.*``, ``stats.*`` columns)
-    000000/             sample 0: im0.png im1.png disp0.pfm disp1.pfm mask0nocc.png calib.txt
+    MiddEval3/trainingF/000000/   sample 0: im0.png im1.png disp0GT.pfm ... calib.txt
                         scene.json sample.json [preview.png]          (fmt="middlebury")
-    000000/             scene.json sample.json; the images go to       (fmt="kitti")
+    MiddEval3/official_train.txt  the complete samples' names (RAFT-Stereo's Middlebury loader)
+    training/samples/000000/      scene.json sample.json; the images go to  (fmt="kitti")
     training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
     training/calib_cam_to_cam/                                    000000.txt
     .lock               held (flock) by the run writing the directory
@@ -17,8 +18,8 @@ Guarantees (see ``docs/datasets.md``):
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
   :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
   workers, the engine or the order;
-- a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to ``NNNNNN/`` when complete: the
-  directory existing *is* the completion marker. A run killed at any point and restarted skips
+- a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to its folder (above; see
+  :mod:`synth.dataset.layout`) when complete: the directory existing *is* the completion marker. A run killed at any point and restarted skips
   the complete samples, redoes the others and ends with the same bytes as an uninterrupted run;
 - a directory made by another configuration (or format) is refused (hash in ``dataset.json``);
   ``count`` is not part of the hash, so a dataset can be extended;
@@ -50,6 +51,7 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
+from synth.dataset.layout import LAYOUT_VERSION, check_layout, sample_dir, sample_dirs, write_scene_list
 from synth.export import FORMATS, KITTI_ROOT, prepare_output_dir, write_pair
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
@@ -62,7 +64,6 @@ __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_s
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
 #: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
 _FORMAT_VERSION = 2
-_SAMPLE_DIR = re.compile(r"^\d{6}$")
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _PHOTOMETRIC_STREAM = 3
 
@@ -184,7 +185,8 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
                 os.replace(f, out / KITTI_ROOT / sub.name / f.name)
             sub.rmdir()
         shared.rmdir()
-    final = out / f"{index:06d}"
+    final = sample_dir(out, fmt, index)
+    final.parent.mkdir(parents=True, exist_ok=True)
     try:
         os.rename(tmp, final)
     except OSError:
@@ -233,7 +235,7 @@ class SampleTask:
 
 # --------------------------------------------------------------------------- manifest
 def read_manifest(dataset_dir: str | Path) -> list[dict]:
-    """Records of the complete samples of a dataset, sorted by index (from ``NNNNNN/sample.json``).
+    """Records of the complete samples of a dataset, sorted by index (from each ``sample.json``).
 
     Examples
     --------
@@ -241,11 +243,7 @@ def read_manifest(dataset_dir: str | Path) -> list[dict]:
     >>> read_manifest(tempfile.mkdtemp())
     []
     """
-    root = Path(dataset_dir)
-    records = []
-    for d in root.iterdir():
-        if d.is_dir() and _SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():
-            records.append(json.loads((d / "sample.json").read_text()))
+    records = [json.loads((d / "sample.json").read_text()) for d in sample_dirs(dataset_dir)]
     return sorted(records, key=lambda r: r["index"])
 
 
@@ -279,7 +277,7 @@ def _write_manifest(out: Path) -> list[dict]:
 def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
     return {"format_version": _FORMAT_VERSION, "name": config.name,
             "config": config.to_dict(with_count=False), "config_hash": config.hash(),
-            "format": fmt, "canny": CANNY_SETTINGS,
+            "format": fmt, "layout": LAYOUT_VERSION, "canny": CANNY_SETTINGS,
             "seeding": "sample_seed = SeedSequence(seed, spawn_key=(index,)).generate_state(1, "
                        "uint64)[0] >> 1"}
 
@@ -302,6 +300,7 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
                 f"one writes version {_FORMAT_VERSION} (other bytes for the same seeds), so the "
                 "dataset cannot be extended here: finish it with the version that started it, "
                 "or choose a new output directory")
+        check_layout(out)
         return
     others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
     if others:
@@ -377,8 +376,8 @@ def run_dataset(
     >>> import tempfile
     >>> tmp = tempfile.mkdtemp()
     >>> run = run_dataset("planes", out=f"{tmp}/planes", count=2, progress=False)
-    >>> run.rendered, sorted(p.name for p in run.out.iterdir())[:3]
-    (2, ['.lock', '000000', '000001'])
+    >>> run.rendered, sorted(p.name for p in (run.out / "MiddEval3" / "trainingF").iterdir())
+    (2, ['000000', '000001'])
     """
     cfg = load_config(config)
     count = cfg.count if count is None else count
@@ -401,7 +400,7 @@ def run_dataset(
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
                 shutil.rmtree(stale, ignore_errors=True)
-        todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]
+        todo = [i for i in range(count) if not sample_dir(out, fmt, i).is_dir()]
         task = SampleTask(cfg, out, fmt, backend)
         bar = progress_bar(total=len(todo), desc=f"dataset {cfg.name}", unit="pair",
                            enabled=progress)
@@ -410,7 +409,7 @@ def run_dataset(
                 bar.update()
         finally:
             bar.close()
-            _write_manifest(out)
+            write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
     finally:
         os.close(lock)
     return DatasetRun(out=out, count=count, rendered=len(todo), skipped=count - len(todo),
@@ -446,7 +445,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     >>> sorted(f.name for f in files)[:3]
     ['calib.txt', 'disp0GT.pfm', 'disp1GT.pfm']
     >>> from pathlib import Path
-    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "000001", "im0.png").read_bytes()
+    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "MiddEval3", "trainingF", "000001", "im0.png").read_bytes()
     True
     """
     from synth.render.renderer import Renderer
@@ -459,7 +458,8 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     cfg = config_from_dict(header["config"], source=str(path))
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
         raise ValueError(f"index must be an int in [0, 999999], got {index!r}")
-    record = root / f"{index:06d}" / "sample.json"
+    check_layout(root)
+    record = sample_dir(root, header["format"], index) / "sample.json"
     seed = sample_seed(cfg.seed, index)
     if record.is_file() and json.loads(record.read_text())["seed"] != seed:
         raise DatasetError(f"{record} has another seed than sample {index} of {path}; the "
