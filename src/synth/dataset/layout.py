@@ -30,7 +30,7 @@ from pathlib import Path
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
 
-__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "KITTI_SAMPLES", "sample_parent",
+__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "KITTI_TRAINING", "KITTI_SAMPLES", "sample_parent",
            "sample_dir", "sample_dirs", "check_layout", "write_scene_list", "upgrade_dataset"]
 
 #: Version of the directory layout, ``layout`` in ``dataset.json`` (absent: layout 1).
@@ -38,8 +38,10 @@ LAYOUT_VERSION = 2
 #: The MiddEval3 root of a Middlebury-format dataset, and its scene folder inside it.
 MIDDEVAL_ROOT = "MiddEval3"
 MIDDEVAL_SCENES = f"{MIDDEVAL_ROOT}/trainingF"
-#: Sample folders (scene.json, sample.json) of a KITTI-format dataset.
-KITTI_SAMPLES = "training/samples"
+#: The KITTI root of a KITTI-format dataset (``image_2/`` ...), and its sample folders
+#: (scene.json, sample.json) inside it.
+KITTI_TRAINING = "training"
+KITTI_SAMPLES = f"{KITTI_TRAINING}/samples"
 _SAMPLE_NAME = re.compile(r"^\d{6}$")
 _PARENTS = {"middlebury": MIDDEVAL_SCENES, "kitti": KITTI_SAMPLES}
 
