@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import backend_option, engine_option, fail, format_option, out_dir_option, workers_option
+from synth.cli.options import LazyChoice, backend_option, engine_option, fail, out_dir_option, workers_option
 
 __all__ = ["dataset"]
 
@@ -19,13 +19,18 @@ __all__ = ["dataset"]
 @workers_option
 @engine_option
 @click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
-@format_option
+@click.option("--format", "fmt", default="middlebury", show_default=True,
+              type=LazyChoice("synth.formats:DATASET_FORMATS"),
+              help="Sample folders (middlebury, kitti) or tar shards (webdataset).")
+@click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
+              help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
 @backend_option
 @click.option("--upgrade", "upgrade", default=None, metavar="DIR",
               type=click.Path(file_okay=False, path_type=Path),
               help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
                    "in place to this one (MiddEval3/trainingF/, training/samples/); no CONFIG.")
-def dataset(config, out, count, workers, engine, address, fmt, backend, upgrade) -> None:
+def dataset(config, out, count, workers, engine, address, fmt, shard_size, backend,
+            upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name).
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
@@ -44,6 +49,13 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, upgrade)
         return
     if config is None or out is None:
         fail(ValueError("give CONFIG and --out DIRECTORY (or --upgrade DIR)"))
+    if shard_size is not None:
+        from synth.dataset.shards import check_shard_option, parse_size
+
+        try:
+            shard_size = check_shard_option(fmt, parse_size(shard_size))
+        except ValueError as exc:
+            fail(exc)
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 
@@ -52,7 +64,8 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, upgrade)
 
     try:
         run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
-                          address=address, fmt=fmt, progress=True, backend=backend)
+                          address=address, fmt=fmt, progress=True, backend=backend,
+                          shard_size=shard_size)
     except (ValueError, FileNotFoundError) as exc:
         fail(exc)
     except SampleError as exc:  # a sample failed: name it and how to reproduce it alone

@@ -43,7 +43,9 @@ MIDDEVAL_SCENES = f"{MIDDEVAL_ROOT}/trainingF"
 KITTI_TRAINING = "training"
 KITTI_SAMPLES = f"{KITTI_TRAINING}/samples"
 _SAMPLE_NAME = re.compile(r"^\d{6}$")
-_PARENTS = {"middlebury": MIDDEVAL_SCENES, "kitti": KITTI_SAMPLES}
+#: Samples of a ``webdataset`` dataset not yet in a complete shard (:mod:`synth.dataset.shards`).
+STAGING = ".staging"
+_PARENTS = {"middlebury": MIDDEVAL_SCENES, "kitti": KITTI_SAMPLES, "webdataset": STAGING}
 
 
 def sample_parent(root: str | Path, fmt: str) -> Path:

@@ -51,8 +51,10 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, run_tasks
-from synth.dataset.layout import LAYOUT_VERSION, check_layout, sample_dir, sample_dirs, write_scene_list
-from synth.export import FORMATS, KITTI_ROOT, prepare_output_dir, write_pair
+from synth.dataset.layout import LAYOUT_VERSION, check_layout, sample_dir, sample_dirs, sample_parent, write_scene_list
+from synth.dataset.shards import ShardWriter, check_shard_option, packed_records
+from synth.export import KITTI_ROOT, prepare_output_dir, write_pair
+from synth.formats import DATASET_FORMATS
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
 from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
@@ -168,7 +170,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
               "params": dict(draw.params), "stats": stats}
     dest.mkdir(parents=True, exist_ok=True)
-    write_pair(degraded, dest, scene=scene, seed=draw.seed, fmt=fmt, index=index,
+    write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
+               fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
                preview=config.preview, fsync=False)
     atomic_write_bytes(dest / "sample.json", _json_bytes(record), fsync=False)
     lap("write")
@@ -244,6 +247,7 @@ def read_manifest(dataset_dir: str | Path) -> list[dict]:
     []
     """
     records = [json.loads((d / "sample.json").read_text()) for d in sample_dirs(dataset_dir)]
+    records += packed_records(dataset_dir)
     return sorted(records, key=lambda r: r["index"])
 
 
@@ -282,11 +286,16 @@ def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
                        "uint64)[0] >> 1"}
 
 
-def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
+def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | None) -> None:
     header = _dataset_header(config, fmt)
+    if shard_size is not None:
+        header["shard_size"] = shard_size
     path = out / "dataset.json"
     if path.is_file():
         old = json.loads(path.read_text())
+        if old.get("shard_size") != shard_size:
+            raise DatasetError(f"{out} holds shards of {old.get('shard_size')} bytes, not "
+                               f"{shard_size}; rerun with --shard-size {old.get('shard_size')}")
         if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
             raise DatasetError(
                 f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
@@ -333,6 +342,7 @@ def run_dataset(
     fmt: str = "middlebury",
     progress: bool = True,
     backend: str = "auto",
+    shard_size: int | None = None,
 ) -> DatasetRun:
     """Render (or finish) the dataset of ``config`` into ``out``.
 
@@ -351,11 +361,14 @@ def run_dataset(
     engine : {"local", "ray"}
     address : str, optional
         Ray cluster address; default a local Ray with ``num_cpus=workers``.
-    fmt : {"middlebury", "kitti"}
+    fmt : {"middlebury", "kitti", "webdataset"}
+        ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
     progress : bool
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}
         GL backend of every worker's renderer.
+    shard_size : int, optional
+        Bytes per shard of ``fmt="webdataset"`` (default about 1 GB); refused with other formats.
 
     Returns
     -------
@@ -383,8 +396,9 @@ def run_dataset(
     count = cfg.count if count is None else count
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 999_999:
         raise ValueError(f"count must be an int in [1, 999999], got {count!r}")
-    if fmt not in FORMATS:
-        raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if fmt not in DATASET_FORMATS:
+        raise ValueError(f"fmt must be one of {', '.join(DATASET_FORMATS)}, got {fmt!r}")
+    shard_size = check_shard_option(fmt, shard_size)
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -396,17 +410,29 @@ def run_dataset(
     out.mkdir(parents=True, exist_ok=True)
     lock = _lock(out)
     try:
-        _open_dataset(out, cfg, fmt)
+        _open_dataset(out, cfg, fmt, shard_size)
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
                 shutil.rmtree(stale, ignore_errors=True)
-        todo = [i for i in range(count) if not sample_dir(out, fmt, i).is_dir()]
+        packer = None if shard_size is None else ShardWriter(
+            out, sample_parent(out, fmt), shard_size, count)
+        todo = packer.todo(count) if packer else [i for i in range(count)
+                                                 if not sample_dir(out, fmt, i).is_dir()]
         task = SampleTask(cfg, out, fmt, backend)
         bar = progress_bar(total=len(todo), desc=f"dataset {cfg.name}", unit="pair",
                            enabled=progress)
         try:
             for _ in run_tasks(task, todo, workers=workers, engine=engine, address=address):
                 bar.update()
+                if packer:
+                    packer.advance(count)
+            if packer:
+                packer.advance(count)
+                packer.finish()
+        except BaseException:
+            if packer:
+                packer.abort()
+            raise
         finally:
             bar.close()
             write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
