@@ -233,6 +233,7 @@ def test_an_unreachable_ray_address_fails_fast_with_the_address(tmp_path, requir
 def test_ray_address_forms():
     from synth.dataset.engine import check_ray_address
 
-    assert check_ray_address("auto") is None and check_ray_address("ray://head:10001") is None
+    check_ray_address("auto")  # Ray resolves these itself: nothing to check, nothing raised
+    check_ray_address("ray://head:10001")
     with pytest.raises(ValueError, match="expected HOST:PORT of a Ray head"):
         check_ray_address("127.0.0.1")

@@ -305,11 +305,11 @@ class _RayWorker:
 RAY_CONNECT_TIMEOUT_S = 30.0
 
 
-def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -> str | None:
-    """Check that the Ray cluster at ``address`` answers within ``timeout`` s; return its host.
+def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -> None:
+    """Check that the Ray cluster at ``address`` answers within ``timeout`` s.
 
     ``address`` is ``HOST:PORT`` (the head's GCS), or ``auto``/``ray://...``, which Ray resolves
-    itself (``None`` is returned for those). An address that does not answer raises
+    itself (they are not checked here). An address that does not answer raises
     :class:`~stereoforge.errors.BackendError` naming it, instead of Ray waiting for ever.
 
     Examples
@@ -324,7 +324,7 @@ def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -
     from stereoforge.errors import BackendError
 
     if address == "auto" or "://" in address:
-        return None
+        return
     host, sep, port = address.rpartition(":")
     if not sep or not port.isdigit() or not host:
         raise ValueError(f"address: expected HOST:PORT of a Ray head (e.g. 127.0.0.1:6379), "
@@ -338,7 +338,6 @@ def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -
             f"engine='ray': no Ray cluster answers at {address} ({exc.strerror or exc} within "
             f"{timeout:g} s); start one (ray start --head --node-ip-address=127.0.0.1) or fix "
             "--address") from None
-    return host
 
 
 def _run_ray(task: Task, indices: Sequence[int], workers: int,

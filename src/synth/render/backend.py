@@ -110,11 +110,9 @@ def gl_renderer_string(backend: str = "auto") -> str:
         If no requested backend starts.
     """
     name = resolve_backend(backend)
-    if name not in _RENDERERS:  # chosen without a probe (the platform was already locked)
-        probe_backend.cache_clear()
-        if probe_backend(name) is not None:
-            return "unknown"
-    return _RENDERERS[name]
+    if name not in _RENDERERS:  # chosen without a probe (the platform was already locked):
+        probe_backend.__wrapped__(name)  # probe once more, leaving the cached verdicts alone
+    return _RENDERERS.get(name, "unknown")
 
 
 def platform_in_use() -> str | None:
