@@ -228,6 +228,7 @@ def test_an_unreachable_ray_address_fails_fast_with_the_address(tmp_path, requir
     errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
     assert len(errors) == 1 and "no Ray cluster answers at 127.0.0.1:1" in errors[0]
     assert "Traceback" not in result.output
+    assert not (tmp_path / "o").exists()  # refused before the dataset folder is made
 
 
 def test_ray_address_forms():

@@ -50,7 +50,7 @@ from matcher.io import atomic_write_bytes
 from synth._json import read_json_object
 from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
-from synth.dataset.engine import ENGINES, run_tasks
+from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
 from synth.dataset.integrity import RECORD, completion_record, sample_problems
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.export import FORMATS, prepare_output_dir, write_pair
@@ -371,6 +371,8 @@ def run_dataset(
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    if engine == "ray" and address is not None:
+        check_ray_address(address)  # an unreachable cluster fails before the folder is made
     t0 = time.perf_counter()
     out = Path(out)
     if out.exists() and not out.is_dir():
