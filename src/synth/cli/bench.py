@@ -102,3 +102,35 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend) -> 
     rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
                          backend=backend, progress=True, size=sizes[0])
     click.echo(write_table(rows, Path(out), "dataset"))
+
+
+@bench.command("realism")
+@out_dir_option(default="out/bench")
+@click.option("--config", default="flying", show_default=True,
+              help="Dataset config (example name or TOML path) whose pairs are compared.")
+@click.option("--count", default=20, show_default=True, type=click.IntRange(min=1))
+@click.option("--data", default=None,
+              help="Middlebury folder with third/ (default $STEREOFORGE_MIDDLEBURY or "
+                   "../shared/data/middlebury); without it only Motorcycle is the reference.")
+@click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1))
+@click.option("--tolerance", default=5.0, show_default=True, type=click.FloatRange(min=0),
+              help="Points of bad-3 the synthetic mean may differ from the real one.")
+@backend_option
+def bench_realism_cmd(out, config, count, data, workers, tolerance, backend) -> None:
+    """bad-3 of CT-9, CT-21 and SGBM-5 on synthetic pairs against the real scenes."""
+    import os
+
+    from synth.jobs.bench_realism import bench_realism, format_verdict
+    from synth.jobs.bench_render import write_table
+
+    folder = Path(data or os.environ.get("STEREOFORGE_MIDDLEBURY") or "../shared/data/middlebury")
+    if data is not None and not (folder / "third").is_dir():
+        fail(FileNotFoundError(f"--data: no third/ folder under {folder}; pass the Middlebury "
+                               f"folder holding third/<Scene>/"))
+    result = bench_realism(config=config, count=count,
+                           data=folder if (folder / "third").is_dir() else None,
+                           out=Path(out), workers=workers, backend=backend, tolerance=tolerance,
+                           log=lambda m: click.echo(m, err=True))
+    click.echo(write_table(result.summary, Path(out), "realism"))
+    write_table(result.samples, Path(out), "realism-samples")
+    click.echo(format_verdict(result, tolerance=tolerance))

@@ -1,0 +1,58 @@
+"""`stereoforge bench realism`: real and synthetic bad-3 of CT-9, CT-21 and SGBM-5, and its verdict."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from synth.cli import main
+from synth.jobs.bench_realism import MATCHERS, REAL_SCENES, bench_realism, format_verdict
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_bench_realism_rows_and_verdict(tmp_path, middlebury_dir):
+    result = bench_realism(config="planes", count=2, data=middlebury_dir, out=tmp_path)
+    sets = [r["set"] for r in result.samples]
+    assert sets.count("middlebury-third") == len(REAL_SCENES)
+    assert sets.count("motorcycle-2014") == 1 and sets.count("planes") == 2
+    labels = [m[0] for m in MATCHERS]
+    for row in result.samples:
+        assert all(0.0 <= row[m] <= 100.0 for m in labels), row
+    # the real scenes are hard: census WTA leaves more than 10 % bad on every one
+    assert all(row["CT-9"] > 10.0 for row in result.samples if row["set"] == "middlebury-third")
+    reference, synthetic = result.summary[0], result.summary[-1]
+    assert reference["set"] == "middlebury-third"
+    for m in labels:
+        six = [r[m] for r in result.samples if r["set"] == "middlebury-third"]
+        assert reference[m] == pytest.approx(np.mean(six), abs=0.01)
+        assert result.within[m] == (abs(synthetic[m] - reference[m]) <= 5.0)
+        assert synthetic[f"{m} diff"] == pytest.approx(synthetic[m] - reference[m], abs=0.011)
+    verdict = format_verdict(result)
+    assert ("realism target met" in verdict) == result.passed
+    # a rerun reuses the kept pairs and gives the same figures
+    again = bench_realism(config="planes", count=2, data=middlebury_dir, out=tmp_path)
+    assert again.samples == result.samples
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_bench_realism_cli_without_real_data_uses_motorcycle(tmp_path, monkeypatch):
+    monkeypatch.setenv("STEREOFORGE_MIDDLEBURY", str(tmp_path / "absent"))
+    r = CliRunner().invoke(main, ["bench", "realism", "--config", "planes", "--count", "1",
+                                  "--out", str(tmp_path / "b")])
+    assert r.exit_code == 0, r.output
+    assert "reference: motorcycle-2014" in r.output
+    with (tmp_path / "b" / "realism-samples.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [row["set"] for row in rows] == ["motorcycle-2014", "planes"]
+
+
+def test_bench_realism_refuses_a_data_folder_without_third(tmp_path):
+    r = CliRunner().invoke(main, ["bench", "realism", "--data", str(tmp_path), "--out",
+                                  str(tmp_path / "b")])
+    assert r.exit_code != 0
+    assert "Error:" in r.output and "third/" in r.output and "Traceback" not in r.output
