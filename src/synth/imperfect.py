@@ -26,6 +26,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from stereoforge.errors import BackendError
 from synth.camera import Defocus, pixel_rays, project, rotation_matrix
 from synth.rig import StereoRig
 
@@ -74,6 +75,11 @@ def _cameras(rig: StereoRig) -> tuple[_Camera, _Camera]:
 # ---------------------------------------------------------------------------- ray casting
 def _world_mesh(scene: Any) -> Any:
     import trimesh
+    import trimesh.ray
+
+    if not trimesh.ray.has_embree:
+        raise BackendError("the exact flow of a rig with camera errors is ray-cast with embree, "
+                           "which is not installed; fix: pip install embreex")
 
     if hasattr(scene, "objects") and hasattr(scene, "light"):
         import scenes
