@@ -508,32 +508,33 @@ def check_distortion(coeffs: Any, name: str, *, max_radius: float,
     real = [float(s.real) for s in np.atleast_1d(roots)
             if abs(s.imag) <= 1e-12 * max(1.0, abs(s)) and s.real > 0]
     coef = f"k1={k1}, k2={k2}, k3={k3}"
-    if real:
-        s_f = min(real)
-        r_f = math.sqrt(s_f)
-        bound = r_f * (1.0 + s_f * (k1 + s_f * (k2 + s_f * k3)))
-        if not bound > r_max:
-            raise fail(name, "a distortion that does not fold the image: the radial mapping "
-                       "r (1 + k1 r^2 + k2 r^4 + k3 r^6) must increase up to the image corner's "
-                       f"distorted radius {r_max:.4g}", f"{coef}, which stops increasing at "
-                       f"r = {r_f:.4g} (distorted radius {bound:.4g})", where=where,
-                       fix="reduce |k1|, |k2|, |k3| until that radius exceeds the corner's")
-        r_hi = r_f
-    else:
-        r_hi = 1.0
-        while r_hi * (1.0 + r_hi**2 * (k1 + r_hi**2 * (k2 + r_hi**2 * k3))) < r_max:
-            r_hi *= 2.0
+
+    def g(r: float) -> float:
+        with np.errstate(over="ignore", invalid="ignore"):
+            s = np.float64(r) * r
+            return float(r * (1.0 + s * (k1 + s * (k2 + s * k3))))
+
+    r_f = math.sqrt(min(real)) if real else math.inf
+    if real and not g(r_f) > r_max:
+        raise fail(name, "a distortion that does not fold the image: the radial mapping "
+                   "r (1 + k1 r^2 + k2 r^4 + k3 r^6) must increase up to the image corner's "
+                   f"distorted radius {r_max:.4g}", f"{coef}, which stops increasing at "
+                   f"r = {r_f:.4g} (distorted radius {g(r_f):.4g})", where=where,
+                   fix="reduce |k1|, |k2|, |k3| until that radius exceeds the corner's")
+    r_hi = min(1.0, r_f)  # the undistorted radius the image reaches (a little beyond)
+    while r_hi < r_f and g(r_hi) < 1.05 * r_max:
+        r_hi = min(2.0 * r_hi, r_f)
     if p1 or p2:  # the Jacobian of the full mapping on the undistorted image (up to r_hi)
         r, t = np.meshgrid(np.linspace(0.0, r_hi, 64), np.linspace(0.0, 2 * np.pi, 64))
         x, y = r * np.cos(t), r * np.sin(t)
         r2 = x * x + y * y
         radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        g = r * radial
+        radius = r * radial
         dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
         a = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
         b = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
         d = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
-        inside = g <= r_max * 1.05
+        inside = radius <= r_max * 1.05
         if not np.all((a * d - b * b)[inside] > 0):
             raise fail(name, "a distortion that does not fold the image (a positive Jacobian)",
                        f"p1={p1}, p2={p2} with {coef}, which fold it", where=where,
