@@ -127,3 +127,21 @@ def test_coc_is_the_thin_lens_formula() -> None:
     c = Defocus(2.0, 2.0, 5.0).coc_px(np.array([2.0, 1.0, np.inf]), fx=1000.0)
     want = 2.5e-3 * 5e-3 / (2.0 - 5e-3) * np.array([0.0, 1.0, 1.0]) / 5e-6
     np.testing.assert_allclose(c, want, rtol=1e-12)
+
+
+def test_a_dataset_of_real_cameras_refuses_the_kitti_layout_before_rendering(tmp_path) -> None:
+    from stereoforge.errors import DatasetError
+    from synth.dataset import run_dataset
+
+    cfg = loads_config("[rig]\nwidth = 64\nheight = 48\nright_rz_deg = 0.5\n", source="r.toml")
+    with pytest.raises(DatasetError, match=r"^r.toml: .*flow0.flo.*not 'kitti'; use --format "
+                                           r"middlebury"):
+        run_dataset(cfg, out=tmp_path / "ds", count=1, fmt="kitti", progress=False)
+    assert not (tmp_path / "ds").exists()
+
+
+def test_fy_alone_is_an_ideal_rig_with_non_square_pixels() -> None:
+    cfg = loads_config("[rig]\nwidth = 64\nheight = 48\nfy = 61.5\n")
+    assert (cfg.rig.fx, cfg.rig.fy, cfg.rig.errors) == (60.0, 61.5, None)
+    assert cfg.to_dict()["rig"]["fy"] == 61.5
+    assert "fy" not in loads_config("[rig]\nwidth = 64\nheight = 48\n").to_dict()["rig"]

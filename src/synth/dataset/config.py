@@ -78,7 +78,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),
         "height": Key("int", 480, lo=8, hi=8192, doc="image height, pixels"),
         "fx": Key("float", None, lo=0.0, lo_open=True,
-                  doc="focal length in pixels (fy = fx); default 600 * width / 640"),
+                  doc="focal length in pixels; default 600 * width / 640"),
         "baseline": Key("float", 0.1, lo=0.0, lo_open=True, hi=100.0,
                         doc="baseline, metres"),
         "near": Key("float", 0.1, lo=0.0, lo_open=True, doc="near plane, metres"),
