@@ -4,7 +4,8 @@ The public API, in one place::
 
     from synth import StereoRig, render_pair, run_dataset
 
-- :class:`StereoRig` — a rectified pinhole pair (OpenCV convention, ``d = fx * B / Z``).
+- :class:`StereoRig` — a rectified pinhole pair (OpenCV convention, ``d = fx * B / Z``);
+  :class:`RigErrors` (:class:`Distortion`, :class:`Defocus`) — how its real cameras deviate.
 - :class:`Renderer`, :func:`render_pair`, :class:`StereoPair` — a pair of views with left/right
   disparity exact to float precision, depth and occlusion masks (headless GL: EGL or OSMesa).
 - :class:`PhotometricParams`, :func:`apply_photometric` — seeded sensor models for the views.
@@ -35,6 +36,7 @@ if TYPE_CHECKING:
         render_from_manifest,
         run_dataset,
     )
+    from synth.camera import Defocus, Distortion, RigErrors
     from synth.export import OutputDirError, write_pair
     from synth.formats import FORMATS
     from synth.pair import StereoPair, occlusion_mask, render_pair
@@ -49,12 +51,15 @@ _EXPORTS = {
     "DatasetConfig": "synth.dataset",
     "DatasetError": "synth.dataset",
     "DatasetRun": "synth.dataset",
+    "Defocus": "synth.camera",
+    "Distortion": "synth.camera",
     "FORMATS": "synth.formats",
     "GLBackendError": "synth.render",
     "OutputDirError": "synth.export",
     "PhotometricPair": "synth.photometric",
     "PhotometricParams": "synth.photometric",
     "Renderer": "synth.render",
+    "RigErrors": "synth.camera",
     "SampleError": "synth.dataset",
     "StereoPair": "synth.pair",
     "StereoRig": "synth.rig",

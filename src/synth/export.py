@@ -21,7 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.io import atomic_write_bytes, encode_png, format_kitti_calib, write_kitti, write_middlebury
+from matcher.io import (
+    atomic_write_bytes,
+    encode_flo,
+    encode_png,
+    format_kitti_calib,
+    write_kitti,
+    write_middlebury,
+)
 from scenes import SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
 from synth.formats import FORMATS, KITTI_ROOT
@@ -277,7 +284,9 @@ def write_pair(
     fmt : {"middlebury", "kitti"}
         ``middlebury``: a MiddEval3 scene folder in ``out``; ``kitti``: frame ``index`` under
         ``out/training/`` (with ``obj_map/`` from :func:`foreground_map` and
-        ``calib_cam_to_cam/``), ``scene.json`` and ``preview.png`` in ``out``.
+        ``calib_cam_to_cam/``), ``scene.json`` and ``preview.png`` in ``out``. A pair of a rig
+        with camera errors (``pair.flow_left`` set) also gets ``flow0.flo`` and is refused in
+        the KITTI layout.
     index : int
         Frame index in the KITTI layout.
     preview : bool
@@ -294,6 +303,10 @@ def write_pair(
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; valid formats: {', '.join(FORMATS)}")
     out = Path(out)
+    flow = None if pair.flow_left is None else encode_flo(pair.flow_left)
+    if flow is not None and fmt != "middlebury":
+        raise OutputDirError(f"a rig with camera errors writes its exact flow as flow0.flo in the "
+                             f"middlebury layout only, not {fmt!r}; use --format middlebury")
     if fmt == "middlebury":
         written = list(
             write_middlebury(
@@ -307,6 +320,8 @@ def write_pair(
                 fsync=fsync,
             )
         )
+        if flow is not None:  # the real cameras' exact correspondence (docs/formats.md)
+            written.append(atomic_write_bytes(out / "flow0.flo", flow, fsync=fsync))
     else:
         written = list(
             write_kitti(out / KITTI_ROOT, index, left=pair.left, right=pair.right,

@@ -17,6 +17,7 @@ from typing import Any, Mapping
 import numpy as np
 from numba import njit
 
+from synth.imperfect import real_views
 from synth.render.renderer import Renderer
 from synth.rig import StereoRig
 
@@ -58,6 +59,11 @@ class StereoPair:
     meta : Mapping
         ``scene``, ``seed``, ``backend``, ``renderer`` (GL_RENDERER),
         ``gl_version``, ``mask_tolerances`` and package ``versions``.
+    flow_left : (H, W, 2) float32 array or None
+        Only for a rig with camera ``errors``: the exact correspondence of the real images,
+        left ``(x, y)`` -> right ``(x + u, y + v)``; NaN where no surface, occluded or outside
+        the right image. ``left`` and ``right`` are then the real cameras' images while the
+        disparities, depth and mask stay the ideal rig's (``docs/formats.md``, *flow0.flo*).
     """
 
     left: np.ndarray
@@ -68,6 +74,7 @@ class StereoPair:
     mask_left: np.ndarray
     rig: StereoRig
     meta: Mapping[str, Any]
+    flow_left: np.ndarray | None = None
 
 
 def occlusion_mask(
@@ -204,9 +211,12 @@ def render_pair(
             return render_pair(scene, rig, renderer=own)
     if not isinstance(renderer, Renderer):
         raise TypeError(f"renderer must be a synth.render.Renderer, got {type(renderer).__name__}")
+    ideal = rig.ideal
     with renderer.uploaded(scene) as scene_meta:
-        left = renderer.render_view(scene, rig, eye="left")
-        right = renderer.render_view(scene, rig, eye="right")
+        left = renderer.render_view(scene, ideal, eye="left")
+        right = renderer.render_view(scene, ideal, eye="right")
+        real = None if rig.errors is None else real_views(
+            scene, rig, renderer=renderer, ideal=(left.color, right.color))
     d_left = rig.disparity_from_depth(left.depth)
     d_right = rig.disparity_from_depth(right.depth)
     mask = occlusion_mask(d_left, d_right)
@@ -218,13 +228,16 @@ def render_pair(
         "mask_tolerances": {"lerp_tol": LERP_TOL, "edge_tol": EDGE_TOL},
         "versions": dict(_versions()),
     }
+    if real is not None:
+        meta["camera_errors"] = rig.errors.to_dict()
     return StereoPair(
-        left=_readonly(left.color),
-        right=_readonly(right.color),
+        left=_readonly(left.color if real is None else real.left),
+        right=_readonly(right.color if real is None else real.right),
         disp_left=_readonly(d_left.astype(np.float32)),
         disp_right=_readonly(d_right.astype(np.float32)),
         depth_left=_readonly(left.depth),
         mask_left=_readonly(mask),
         rig=rig,
         meta=MappingProxyType(meta),
+        flow_left=None if real is None else _readonly(real.flow),
     )

@@ -8,16 +8,17 @@ z forward, metres), the right camera sits at ``(baseline, 0, 0)`` and
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any, Mapping
 
 import numpy as np
 
 from stereoforge.validation import check_choice, check_int, check_keys, check_real, fail
+from synth.camera import RigErrors
 
 __all__ = ["StereoRig"]
 
-_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "baseline", "near", "far")
+_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "baseline", "near", "far", "errors")
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,12 @@ class StereoRig:
         ``(baseline, 0, 0)`` in the left camera's frame.
     near, far : float
         Depth range (metres, along the optical axis) the renderer accepts.
+    errors : synth.camera.RigErrors, optional
+        How the real cameras deviate from this ideal rig (lens distortion, rotation, vertical
+        offset, focal ratio, defocus). ``None`` (default): the cameras are this ideal rig. The
+        ground truth (disparity, depth, mask) is always that of the ideal rig; with errors the
+        images are the real cameras' and :func:`synth.render_pair` adds the exact left -> right
+        flow (``docs/formats.md``, *flow0.flo*).
 
     Examples
     --------
@@ -57,6 +64,7 @@ class StereoRig:
     baseline: float
     near: float = 0.1
     far: float = 100.0
+    errors: RigErrors | None = None
 
     def __post_init__(self) -> None:
         for name in ("width", "height"):
@@ -73,6 +81,16 @@ class StereoRig:
             raise fail("StereoRig.near, StereoRig.far", "0 < near < far",
                        f"near={self.near}, far={self.far}",
                        fix="pass a positive near plane closer than the far plane")
+        if self.errors is not None:
+            if not isinstance(self.errors, RigErrors):
+                raise fail("StereoRig.errors", "a synth.camera.RigErrors or None",
+                           type(self.errors).__name__)
+            self.errors.check_image(self.width, self.height, self.fx, self.fy, self.cx, self.cy)
+
+    @property
+    def ideal(self) -> StereoRig:
+        """This rig without its camera errors (itself when it has none)."""
+        return self if self.errors is None else replace(self, errors=None)
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -127,7 +145,10 @@ class StereoRig:
         True
         """
         check_keys(data, "StereoRig.from_dict", _FIELDS)
-        return cls(**dict(data))
+        kw = dict(data)
+        if kw.get("errors") is not None:
+            kw["errors"] = RigErrors.from_dict(kw["errors"])
+        return cls(**kw)
 
     # ------------------------------------------------------------------ geometry
     def K(self) -> np.ndarray:
@@ -272,18 +293,26 @@ class StereoRig:
             baseline=self.baseline,
             near=self.near,
             far=self.far,
+            errors=None if self.errors is None else replace(
+                self.errors, dy_px=self.errors.dy_px * factor),  # coefficients are normalised
         )
 
     # ------------------------------------------------------------------ serialisation
     def to_dict(self) -> dict[str, Any]:
         """Plain ``dict`` of the fields (ints and floats), e.g. for JSON/TOML metadata.
 
+        ``errors`` appears only when the rig has some (a nested dict).
+
         Examples
         --------
         >>> sorted(StereoRig.default(8, 6).to_dict())
         ['baseline', 'cx', 'cy', 'far', 'fx', 'fy', 'height', 'near', 'width']
         """
-        return asdict(self)
+        out = asdict(self)
+        out.pop("errors")
+        if self.errors is not None:
+            out["errors"] = self.errors.to_dict()
+        return out
 
     def middlebury_calib(
         self, ndisp: int, vmin: float, vmax: float, doffs: float = 0.0

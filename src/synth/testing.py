@@ -24,7 +24,7 @@ from hypothesis import strategies as st
 
 from scenes import SceneSpec, get_preset, list_presets
 
-__all__ = ["preset_scenes", "rendered_pairs"]
+__all__ = ["preset_scenes", "rendered_pairs", "rig_errors"]
 
 
 def preset_scenes(*, names: tuple[str, ...] | None = None) -> st.SearchStrategy[SceneSpec]:
@@ -63,3 +63,25 @@ def rendered_pairs(renderer, *, width: int = 64, height: int = 48, baseline: flo
 
     rig = StereoRig.default(width, height, baseline=baseline)
     return preset_scenes(names=names).map(lambda scene: render_pair(scene, rig, renderer=renderer))
+
+
+def rig_errors(*, max_k1: float = 0.2, max_rotation_deg: float = 2.0,
+               max_dy_px: float = 2.0) -> st.SearchStrategy:
+    """Small, realistic :class:`synth.camera.RigErrors`: distortion of both cameras (``|k1| <=
+    max_k1``, ``|k2| <= max_k1 / 4``, ``|p1|, |p2| <= 0.002``), a rotation of the right camera
+    within ``max_rotation_deg`` per axis, a vertical offset within ``max_dy_px`` and a focal
+    ratio in [0.97, 1.03]. They never fold a view of up to ~60 degrees.
+
+    Use with ``dataclasses.replace(rig, errors=...)`` and ``render_pair``: the pair then carries
+    the exact ``flow_left`` of its real cameras.
+    """
+    from synth.camera import Distortion, RigErrors
+
+    def distortions() -> st.SearchStrategy:
+        return st.builds(Distortion, st.floats(-max_k1, max_k1), st.floats(-max_k1 / 4, max_k1 / 4),
+                         st.floats(-0.002, 0.002), st.floats(-0.002, 0.002), st.just(0.0))
+
+    angle = st.floats(-max_rotation_deg, max_rotation_deg)
+    return st.builds(RigErrors, left=distortions(), right=distortions(),
+                     rotation_deg=st.tuples(angle, angle, angle),
+                     dy_px=st.floats(-max_dy_px, max_dy_px), f_scale=st.floats(0.97, 1.03))

@@ -1,11 +1,12 @@
 """Every stereo file format, read and write, one module per format (see ``docs/formats.md``):
 PFM (:mod:`~matcher.io.pfm`), PNG images and disparities (:mod:`~matcher.io.png`), ``calib.txt``
 (:mod:`~matcher.io.calib`), the Middlebury 2005/2006 and 2014 layouts
-(:mod:`~matcher.io.middlebury`), KITTI 2015 (:mod:`~matcher.io.kitti`), and atomic file writes
+(:mod:`~matcher.io.middlebury`), KITTI 2015 (:mod:`~matcher.io.kitti`), Middlebury ``.flo`` flow (:mod:`~matcher.io.flo`), and atomic file writes
 (:mod:`~matcher.io.atomic`). The writers take arrays and plain values."""
 
 from matcher.io.atomic import atomic_write_bytes, save_figure_atomic, write_all_atomic
 from matcher.io.calib import CALIB_KEYS, format_calib, parse_calib, read_calib
+from matcher.io.flo import FloError, decode_flo, encode_flo, read_flo, write_flo
 from matcher.io.kitti import (
     KITTI_MAX_DISPARITY,
     encode_kitti_disparity,
@@ -45,6 +46,7 @@ from matcher.io.sample import StereoSample, check_stereo_images
 __all__ = [
     "CALIB_KEYS",
     "DEFLATE",
+    "FloError",
     "GT_NAMES",
     "KITTI_DIVISOR",
     "KITTI_MAX_DISPARITY",
@@ -55,7 +57,9 @@ __all__ = [
     "atomic_write_bytes",
     "check_stereo_images",
     "decode_disparity_png",
+    "decode_flo",
     "decode_pfm",
+    "encode_flo",
     "encode_kitti_disparity",
     "encode_pfm",
     "encode_png",
@@ -69,12 +73,14 @@ __all__ = [
     "parse_kitti_calib",
     "read_calib",
     "read_disparity",
+    "read_flo",
     "read_image",
     "read_kitti_calib",
     "read_pfm",
     "read_pfm_header",
     "save_figure_atomic",
     "write_all_atomic",
+    "write_flo",
     "write_kitti",
     "write_middlebury",
     "write_pfm",

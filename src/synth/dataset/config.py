@@ -31,6 +31,7 @@ from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
 from stereoforge.validation import check_keys, describe
 from synth._toml import TomlSource, parse_toml, read_toml_text
+from synth.camera import F_SCALE_RANGE, MAX_ROTATION_DEG, Defocus, Distortion, RigErrors
 from synth.rig import StereoRig
 
 __all__ = [
@@ -60,6 +61,9 @@ def _allowed(section: str, spec: Key) -> str:
 
 
 _SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
+_DISTORTION = ("k1", "k2", "p1", "p2", "k3")
+#: The ``[rig]`` keys of the ideal rig (always written by :meth:`DatasetConfig.to_dict`).
+_IDEAL_RIG = ("width", "height", "fx", "baseline", "near", "far")
 _OCCLUDER_KINDS = ("box", "sphere", "cylinder")
 
 #: Every section, key and its schema (``""`` is the top level).
@@ -74,11 +78,29 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),
         "height": Key("int", 480, lo=8, hi=8192, doc="image height, pixels"),
         "fx": Key("float", None, lo=0.0, lo_open=True,
-                  doc="focal length in pixels (fy = fx); default 600 * width / 640"),
+                  doc="focal length in pixels; default 600 * width / 640"),
         "baseline": Key("float", 0.1, lo=0.0, lo_open=True, hi=100.0,
                         doc="baseline, metres"),
         "near": Key("float", 0.1, lo=0.0, lo_open=True, doc="near plane, metres"),
         "far": Key("float", 100.0, lo=0.0, lo_open=True, doc="far plane, metres"),
+        # the real cameras (synth.camera.RigErrors); unset = the ideal rig, today's bytes
+        "fy": Key("float", None, lo=0.0, lo_open=True, doc="vertical focal length, pixels"),
+        **{f"{side}{k}": Key("float", None, lo=-2.0 if k[0] == "k" else -0.05,
+                             hi=2.0 if k[0] == "k" else 0.05,
+                             doc=f"{'right' if side else 'left'} camera distortion {k} (OpenCV)")
+           for side in ("", "right_") for k in _DISTORTION},
+        **{f"right_{a}_deg": Key("float", None, lo=-MAX_ROTATION_DEG, hi=MAX_ROTATION_DEG,
+                                 doc=f"rotation of the right camera about its {a[1]} axis, degrees")
+           for a in ("rx", "ry", "rz")},
+        "right_dy_px": Key("float", None, lo=-64.0, hi=64.0,
+                           doc="vertical offset of the right principal point, pixels"),
+        "right_f_scale": Key("float", None, lo=F_SCALE_RANGE[0], hi=F_SCALE_RANGE[1],
+                             doc="right focal lengths over the left's"),
+        "focus_distance": Key("float", None, lo=0.0, lo_open=True,
+                              doc="defocus: in-focus depth, metres (unset: no defocus)"),
+        "f_number": Key("float", None, lo=0.5, hi=64.0, doc="defocus: f-number"),
+        "pixel_pitch_um": Key("float", None, lo=0.1, hi=100.0,
+                              doc="defocus: pixel pitch, micrometres (default 3)"),
     },
     "scene": {
         "base": Key("str", "fronto_plane", choices=tuple(PRESETS), doc="base preset"),
@@ -111,7 +133,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
 })
 
 #: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
-EXAMPLES = ("planes", "texture-sweep", "flying")
+EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig")
 
 
 # --------------------------------------------------------------------------- distributions
@@ -198,7 +220,8 @@ class DatasetConfig:
 
     def to_dict(self, *, with_count: bool = True) -> dict[str, Any]:
         """Canonical plain dict (the TOML structure, defaults filled in)."""
-        rig = {k: v for k, v in self.rig.to_dict().items() if k in SCHEMA["rig"]}
+        rig = {k: v for k, v in self.rig.to_dict().items() if k in _IDEAL_RIG}
+        rig.update(_camera_keys(self.rig))
         out: dict[str, Any] = {"name": self.name, "seed": self.seed, "preview": self.preview,
                                "rig": rig,
                                "scene": {k: d.to_toml() for k, d in sorted(self.scene.items())},
@@ -303,9 +326,16 @@ class _Parser:
             raise self.fail("rig", "far", "near < far",
                             f"near = {rig_kw['near']}, far = {rig_kw['far']}",
                             fix="put the far plane beyond the near plane")
-        rig = StereoRig(width=rig_kw["width"], height=rig_kw["height"], fx=fx, fy=fx,
-                        cx=(rig_kw["width"] - 1) / 2.0, cy=(rig_kw["height"] - 1) / 2.0,
-                        baseline=rig_kw["baseline"], near=rig_kw["near"], far=rig_kw["far"])
+        fy = rig_kw["fy"] if rig_kw["fy"] is not None else fx
+        try:
+            rig = StereoRig(width=rig_kw["width"], height=rig_kw["height"], fx=fx, fy=fy,
+                            cx=(rig_kw["width"] - 1) / 2.0, cy=(rig_kw["height"] - 1) / 2.0,
+                            baseline=rig_kw["baseline"], near=rig_kw["near"],
+                            far=rig_kw["far"], errors=_rig_errors(rig_kw))
+        except StereoforgeError as exc:
+            first = next((k for k in SCHEMA["rig"] if k not in _IDEAL_RIG
+                          and rig_kw[k] is not None), "width")
+            raise ConfigError(f"{self.toml.where('rig', first)}: [rig] {exc}") from None
         sections = {}
         for sec in _DIST_SECTIONS:
             raw = self.section(data.get(sec, {}), sec)
@@ -331,6 +361,45 @@ class _Parser:
             scene=MappingProxyType(scene), photometric=MappingProxyType(sections["photometric"]),
             source=self.source,
         )
+
+
+def _rig_errors(kw: Mapping[str, Any]) -> RigErrors | None:
+    """The camera errors of the ``[rig]`` keys (``None`` when none is set: the ideal rig)."""
+    if all(kw[k] is None for k in SCHEMA["rig"] if k not in (*_IDEAL_RIG, "fy")):
+        return None
+    if (kw["focus_distance"] is None) != (kw["f_number"] is None):
+        raise ConfigError("focus_distance and f_number: expected both (defocus) or neither, "
+                          "got one; set both to blur by depth, or remove the one set")
+
+    def dist(prefix: str) -> Distortion:
+        return Distortion(*(kw[f"{prefix}{k}"] or 0.0 for k in _DISTORTION))
+
+    defocus = None if kw["focus_distance"] is None else Defocus(
+        kw["focus_distance"], kw["f_number"],
+        3.0 if kw["pixel_pitch_um"] is None else kw["pixel_pitch_um"])
+    return RigErrors(left=dist(""), right=dist("right_"),
+                     rotation_deg=tuple(kw[f"right_{a}_deg"] or 0.0 for a in ("rx", "ry", "rz")),
+                     dy_px=kw["right_dy_px"] or 0.0,
+                     f_scale=1.0 if kw["right_f_scale"] is None else kw["right_f_scale"],
+                     defocus=defocus)
+
+
+def _camera_keys(rig: StereoRig) -> dict[str, Any]:
+    """The ``[rig]`` keys of ``rig``'s real cameras that differ from the ideal rig."""
+    out: dict[str, Any] = {} if rig.fy == rig.fx else {"fy": rig.fy}
+    e = rig.errors
+    if e is None:
+        return out
+    values = {**{k: v for k, v in zip(_DISTORTION, e.left.coeffs)},
+              **{f"right_{k}": v for k, v in zip(_DISTORTION, e.right.coeffs)},
+              **{f"right_{a}_deg": v for a, v in zip(("rx", "ry", "rz"), e.rotation_deg)},
+              "right_dy_px": e.dy_px, "right_f_scale": e.f_scale}
+    out.update({k: v for k, v in values.items()
+                if v != (1.0 if k == "right_f_scale" else 0.0)})
+    if e.defocus is not None:
+        out.update(focus_distance=e.defocus.focus_distance, f_number=e.defocus.f_number,
+                   pixel_pitch_um=e.defocus.pixel_pitch_um)
+    return out
 
 
 def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
@@ -375,7 +444,7 @@ def list_examples() -> list[str]:
     Examples
     --------
     >>> list_examples()
-    ['planes', 'texture-sweep', 'flying']
+    ['planes', 'texture-sweep', 'flying', 'imperfect-rig']
     """
     return list(EXAMPLES)
 

@@ -367,6 +367,10 @@ def run_dataset(
         raise ValueError(f"count must be an int in [1, 999999], got {count!r}")
     if fmt not in FORMATS:
         raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if cfg.rig.errors is not None and fmt != "middlebury":
+        raise DatasetError(f"{cfg.source}: the [rig] camera errors give each sample a flow0.flo, "
+                           f"which only the middlebury layout holds, not {fmt!r}; use "
+                           "--format middlebury")
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:

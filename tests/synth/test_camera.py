@@ -1,0 +1,147 @@
+"""Camera models of a real rig: distortion and its inverse, the fold bound, rig errors (no GL)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from stereoforge.errors import ConfigError, ParameterError, StereoforgeError
+from stereoforge.validation import check_distortion
+from synth.camera import Defocus, Distortion, RigErrors, distort, rotation_matrix, undistort
+from synth.dataset.config import load_config, loads_config
+from synth.rig import StereoRig
+
+MILD = (-0.12, 0.03, 0.0005, -0.0008, 0.001)
+
+
+def test_distort_is_opencv_projectpoints() -> None:
+    rng = np.random.default_rng(0)
+    x, y = rng.uniform(-0.6, 0.6, (2, 50))
+    want, _ = cv2.projectPoints(np.stack([x, y, np.ones(50)], 1), np.zeros(3), np.zeros(3),
+                                np.eye(3), np.array(MILD))
+    got = np.stack(distort(x, y, MILD), 1)
+    np.testing.assert_allclose(got, want[:, 0], atol=1e-12)
+
+
+@given(st.floats(-0.6, 0.6), st.floats(-0.45, 0.45))
+def test_undistort_inverts_distort(x: float, y: float) -> None:
+    ux, uy = undistort(*distort(np.array([x]), np.array([y]), MILD), MILD)
+    assert abs(ux[0] - x) < 1e-12 and abs(uy[0] - y) < 1e-12
+
+
+def test_rotation_matrix_is_a_rotation_in_zyx_order() -> None:
+    r = rotation_matrix((3.0, -2.0, 1.0))
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-15)
+    want = cv2.Rodrigues(np.array([0.0, 0.0, np.radians(1.0)]))[0] @ cv2.Rodrigues(
+        np.array([0.0, np.radians(-2.0), 0.0]))[0] @ cv2.Rodrigues(np.array([np.radians(3.0), 0, 0]))[0]
+    np.testing.assert_allclose(r, want, atol=1e-15)
+
+
+# ---------------------------------------------------------------------------- bad input
+def test_folding_radial_distortion_is_refused_with_the_bound() -> None:
+    # 64 x 48, fx = 60: corner radius 0.67; k1 = -0.8 stops increasing at r = 0.645 (g = 0.43)
+    with pytest.raises(ParameterError) as info:
+        StereoRig(width=64, height=48, fx=60.0, fy=60.0, cx=31.5, cy=23.5, baseline=0.1,
+                  errors=RigErrors(left=Distortion(k1=-0.8)))
+    msg = str(info.value)
+    assert "left distortion: expected a distortion that does not fold the image" in msg
+    assert "distorted radius 0.6667" in msg and "stops increasing at r = 0.6455" in msg
+    assert "reduce |k1|, |k2|, |k3|" in msg
+
+
+def test_bound_is_where_the_radial_mapping_turns() -> None:
+    # g(r) = r (1 + k1 r^2): g' = 0 at r^2 = -1 / (3 k1), g there = (2/3) r: the largest corner
+    k1 = -0.5
+    r_f = np.sqrt(-1 / (3 * k1))
+    bound = r_f * (1 + k1 * r_f**2)
+    check_distortion((k1, 0, 0, 0, 0), "k", max_radius=bound * 0.999)
+    with pytest.raises(ParameterError, match="does not fold"):
+        check_distortion((k1, 0, 0, 0, 0), "k", max_radius=bound * 1.001)
+    # a pincushion k1 > 0 with k2 < 0 folds too; k1 > 0 alone never does
+    with pytest.raises(ParameterError, match="does not fold"):
+        check_distortion((0.3, -0.6, 0, 0, 0), "k", max_radius=1.0)
+    check_distortion((0.5, 0, 0, 0, 0), "k", max_radius=5.0)
+
+
+def test_folding_tangential_distortion_is_refused() -> None:
+    with pytest.raises(ParameterError, match=r"k p1: expected \|p1\| <= 0.05, got 0.2"):
+        check_distortion((0, 0, 0.2, 0, 0), "k", max_radius=0.5)
+    with pytest.raises(ParameterError, match="positive Jacobian"):
+        check_distortion((0.0, 0.0, 0.05, 0.05, 0.0), "k", max_radius=3.0)  # fold near r = 3
+    check_distortion((0.0, 0.0, 0.05, 0.05, 0.0), "k", max_radius=2.0)
+
+
+@pytest.mark.parametrize("rotation", [(30.0, 0.0, 0.0), (0.0, 0.0, -11.0), (0.0, 3.14, 1e9)])
+def test_absurd_rotation_is_refused(rotation) -> None:
+    with pytest.raises(ParameterError, match=r"rotation_deg\[\d\]: expected a rotation within "
+                                              r"\+-10.0 degrees.*degrees, not radians"):
+        RigErrors(rotation_deg=rotation)
+
+
+def test_config_errors_name_file_line_and_bound() -> None:
+    text = "[rig]\nwidth = 64\nheight = 48\nk1 = -1.5\n"
+    with pytest.raises(ConfigError, match=r"^my.toml:4: \[rig\] left distortion: expected a "
+                                          r"distortion that does not fold"):
+        loads_config(text, source="my.toml")
+    with pytest.raises(ConfigError, match=r"my.toml:2: rig.right_rx_deg: expected a finite number in "
+                                          r"\[-10.0, 10.0\]"):
+        loads_config("[rig]\nright_rx_deg = 45\n", source="my.toml")
+    with pytest.raises(ConfigError, match="focus_distance and f_number: expected both"):
+        loads_config("[rig]\nfocus_distance = 2.0\n", source="my.toml")
+
+
+def test_every_error_is_a_stereoforge_error() -> None:
+    for bad in (lambda: RigErrors(f_scale=2.0), lambda: Defocus(2.0, 0.1),
+                lambda: RigErrors(rotation_deg=(1.0, 2.0))):
+        with pytest.raises(StereoforgeError):
+            bad()
+
+
+# ---------------------------------------------------------------------------- the rig
+def test_ideal_rig_keeps_todays_dict_and_round_trips_errors() -> None:
+    rig = StereoRig.default(64, 48)
+    assert "errors" not in rig.to_dict() and rig.ideal is rig
+    real = StereoRig(**{**rig.to_dict(), "errors": RigErrors(
+        left=Distortion(*MILD), rotation_deg=(0.3, -0.2, 0.1), dy_px=0.5, f_scale=1.01,
+        defocus=Defocus(2.0, 2.8))})
+    assert StereoRig.from_dict(real.to_dict()) == real
+    assert real.ideal == rig
+    assert real.scaled(2.0).errors.dy_px == 1.0
+
+
+def test_shipped_imperfect_rig_config() -> None:
+    cfg = load_config("imperfect-rig")
+    e = cfg.rig.errors
+    assert e is not None and e.geometric and e.defocus is None
+    assert cfg.rig.fy != cfg.rig.fx and not e.left.is_zero and any(e.rotation_deg)
+    assert all(d.to_toml() == 0.0 or d.to_toml() == 1.0 for d in cfg.photometric.values())
+    assert loads_config(
+        "[rig]\n" + "".join(f"{k} = {v}\n" for k, v in cfg.to_dict()["rig"].items())).rig == cfg.rig
+
+
+def test_coc_is_the_thin_lens_formula() -> None:
+    # f = 1000 px * 5 um = 5 mm, N = 2: A = 2.5 mm; S = 2 m, Z = 1 m: c = A f / (S - f) |Z-S|/Z
+    c = Defocus(2.0, 2.0, 5.0).coc_px(np.array([2.0, 1.0, np.inf]), fx=1000.0)
+    want = 2.5e-3 * 5e-3 / (2.0 - 5e-3) * np.array([0.0, 1.0, 1.0]) / 5e-6
+    np.testing.assert_allclose(c, want, rtol=1e-12)
+
+
+def test_a_dataset_of_real_cameras_refuses_the_kitti_layout_before_rendering(tmp_path) -> None:
+    from stereoforge.errors import DatasetError
+    from synth.dataset import run_dataset
+
+    cfg = loads_config("[rig]\nwidth = 64\nheight = 48\nright_rz_deg = 0.5\n", source="r.toml")
+    with pytest.raises(DatasetError, match=r"^r.toml: .*flow0.flo.*not 'kitti'; use --format "
+                                           r"middlebury"):
+        run_dataset(cfg, out=tmp_path / "ds", count=1, fmt="kitti", progress=False)
+    assert not (tmp_path / "ds").exists()
+
+
+def test_fy_alone_is_an_ideal_rig_with_non_square_pixels() -> None:
+    cfg = loads_config("[rig]\nwidth = 64\nheight = 48\nfy = 61.5\n")
+    assert (cfg.rig.fx, cfg.rig.fy, cfg.rig.errors) == (60.0, 61.5, None)
+    assert cfg.to_dict()["rig"]["fy"] == 61.5
+    assert "fy" not in loads_config("[rig]\nwidth = 64\nheight = 48\n").to_dict()["rig"]
