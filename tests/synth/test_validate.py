@@ -17,27 +17,9 @@ from synth.validate import axes as axes_mod
 from synth.validate.axes import AXES, Axis, axis_config, base_config, register_axis
 from synth.validate.run import COLUMNS, TIMING_COLUMNS, plan, run_validate
 
-HERE = os.path.abspath(__file__)
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "user_matchers.py")
 TINY = {"width": 64, "height": 48, "seeds": (0, 1)}
 SOME_AXES = ("noise", "occluders", "textureless_fraction", "slant")
-
-
-def sad5(left, right, *, max_disparity):
-    """A small SAD matcher (3x3 box), NaN where the search leaves the image."""
-    import cv2
-
-    gl, gr = left.mean(axis=2, dtype=np.float32), right.mean(axis=2, dtype=np.float32)
-    w = gl.shape[1]
-    costs = np.full((max_disparity, *gl.shape), np.inf, np.float32)
-    for d in range(max_disparity):
-        costs[d, :, d:] = cv2.boxFilter(np.abs(gl[:, d:] - gr[:, : w - d]), -1, (3, 3))
-    disp = costs.argmin(axis=0).astype(np.float32)
-    disp[:, :max_disparity] = np.nan
-    return disp
-
-
-def broken(left, right, *, max_disparity):
-    raise ZeroDivisionError("user bug")
 
 
 @pytest.fixture(scope="module")
@@ -98,7 +80,7 @@ def test_plan_order_and_folders():
 @pytest.fixture(scope="module")
 def tiny_run(tiny_suite, tmp_path_factory, renderer):
     out = tmp_path_factory.mktemp("validate") / "a"
-    res = run_validate(f"py:{HERE}:sad5", out=out, against=("ct:5",), axes=SOME_AXES,
+    res = run_validate(f"py:{HERE}:sad3", out=out, against=("ct:5",), axes=SOME_AXES,
                        battery=False, progress=False)
     return out, res
 
@@ -112,7 +94,7 @@ def test_results_csv_rows_masks_and_estimates(tiny_run):
     assert res.pairs_rendered == n_pairs and res.estimates_computed == 2 * n_pairs
     assert len(rows) == 2 * n_pairs * len(REGIONS)
     assert [r["region"] for r in rows[:5]] == list(REGIONS)
-    assert {r["matcher"] for r in rows} == {f"py:{HERE}:sad5", "ct:5"}
+    assert {r["matcher"] for r in rows} == {f"py:{HERE}:sad3", "ct:5"}
     for r in rows:
         assert r["error"] == ""
         folder = out / r["sample"]
@@ -125,7 +107,7 @@ def test_results_csv_rows_masks_and_estimates(tiny_run):
             assert 0 <= float(r["coverage"]) <= 1 and float(r["mpix_disp_per_s"]) > 0
     by = {(r["matcher"], r["axis"], r["value"], r["seed"], r["region"]): r for r in rows}
     # the card makes a textureless region that the base scene lacks; the SAD fails on it
-    card = by[f"py:{HERE}:sad5", "textureless_fraction", "0.5", "0", "textureless"]
+    card = by[f"py:{HERE}:sad3", "textureless_fraction", "0.5", "0", "textureless"]
     assert float(card["bad_2"]) > 0.5
     assert by["ct:5", "textureless_fraction", "0.0", "0", "textureless"]["bad_2"] == ""
     # a fronto-parallel plane has no depth edge, the boxes do
@@ -141,7 +123,7 @@ def test_results_csv_rows_masks_and_estimates(tiny_run):
 def test_same_config_same_bytes_and_resume_verifies(tiny_run, tmp_path):
     out, _ = tiny_run
     first, first_bytes = _rows(out / "results.csv"), (out / "results.csv").read_bytes()
-    again = run_validate(f"py:{HERE}:sad5", out=out, against=("ct:5",), axes=SOME_AXES,
+    again = run_validate(f"py:{HERE}:sad3", out=out, against=("ct:5",), axes=SOME_AXES,
                          battery=False, progress=False)
     assert again.pairs_rendered == 0 and again.estimates_computed == 0
     assert (out / "results.csv").read_bytes() == first_bytes  # reused records, timings too
@@ -149,12 +131,12 @@ def test_same_config_same_bytes_and_resume_verifies(tiny_run, tmp_path):
     victim = out / "pairs/noise/4_s1/im0.png"
     victim.write_bytes(victim.read_bytes()[:-10])
     (out / "estimates").joinpath("x").mkdir()  # unrelated clutter is ignored
-    fixed = run_validate(f"py:{HERE}:sad5", out=out, against=("ct:5",), axes=SOME_AXES,
+    fixed = run_validate(f"py:{HERE}:sad3", out=out, against=("ct:5",), axes=SOME_AXES,
                          battery=False, progress=False)
     assert fixed.pairs_rendered == 1
     assert _untimed(_rows(out / "results.csv")) == _untimed(first)
     # a second folder from scratch: the same rows but the timing columns
-    other = run_validate(f"py:{HERE}:sad5", out=tmp_path / "b", against=("ct:5",),
+    other = run_validate(f"py:{HERE}:sad3", out=tmp_path / "b", against=("ct:5",),
                          axes=SOME_AXES, battery=False, progress=False)
     assert _untimed(_rows(other.results)) == _untimed(first)
 

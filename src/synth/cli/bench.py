@@ -46,12 +46,14 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
 @click.option("--isa", default="native", show_default=True,
               type=LazyChoice("synth.jobs.bench_match:ISAS"),
               help="avx2: also time an AVX2-only numba build (a fresh process) beside this CPU's.")
-def bench_match_cmd(out, repeats, isa) -> None:
+@click.option("--matcher", "matchers", multiple=True, metavar="MATCHER",
+              help="Also time this MATCHER string (NAME[:WINDOW], py:..., cmd:...); repeatable.")
+def bench_match_cmd(out, repeats, isa, matchers) -> None:
     """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
     from synth.jobs.bench_match import bench_match_isas, peak_memory
     from synth.jobs.bench_render import write_table
 
-    rows = bench_match_isas(isa, repeats=repeats)
+    rows = bench_match_isas(isa, repeats=repeats, matchers=matchers)
     click.echo(write_table(rows, Path(out), "match"))
     memory = []
     for method, aggregate, lr_check in (("ct", None, False), ("ct", 5, True), ("sct", None, False)):

@@ -92,6 +92,7 @@ class StudyConfig:
     delta: float
     source: str = "<string>"
     text: str = ""
+    matchers: tuple[str, ...] = ()  # MATCHER strings run once per cell (window column empty)
 
     def cells(self) -> list[tuple[str, float, float, int]]:
         """``(kind, level, contrast, seed)`` of every cell, in results order."""
