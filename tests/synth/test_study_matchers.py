@@ -102,3 +102,36 @@ def test_bench_match_times_any_matcher_beside_opencv():
     by = {r.label: r for r in rows}
     assert by["ct:5"].accuracy == by["CT 5x5"].accuracy
     assert by[f"py:{HERE}:sad3"].accuracy > 0.9 and by[f"py:{HERE}:sad3"].seconds > 0
+
+
+SWEEP = TINY.replace('frequencies_px = [0.05, 0.15]',
+                     'sweep_key = "photometric.gain", sweep_values = [0.7, 1.3]')
+
+
+@pytest.mark.gl
+def test_study_sweeps_any_dataset_config_key(tmp_path, renderer):
+    config = tmp_path / "sweep.toml"
+    config.write_text(SWEEP)
+    out = run_study(config, out=tmp_path / "s", progress=False)
+    rows = _rows(out / "results.csv")
+    assert [(r["texture_axis"], r["texture_level"]) for r in rows] == [
+        ("photometric.gain", "0.7"), ("photometric.gain", "1.3")]
+    assert "gain=0.7" in (out / "summary.md").read_text()
+    assert sorted(p.name for p in (out / "cells" / "slanted_plane").iterdir()) == [
+        "photometric.gain=0.7_c0.8_s3.json", "photometric.gain=1.3_c0.8_s3.json"]
+    again = run_study(config, out=tmp_path / "t", progress=False)
+    assert (again / "results.csv").read_bytes() == (out / "results.csv").read_bytes()
+
+
+@pytest.mark.parametrize("scene, message", [
+    ('sweep_key = "photometric.gian", sweep_values = [1.0]', "a dataset-config key"),
+    ('sweep_key = "scene.occluders", sweep_values = [1.5]', "values of scene.occluders"),
+    ('sweep_values = [1.0]', "sweep_key and sweep_values together"),
+    ('sweep_key = "rig.baseline", sweep_values = [0.1], frequencies_px = [0.1]', "more than one"),
+])
+def test_a_bad_sweep_names_the_line(scene, message):
+    from synth.jobs.study import StudyConfigError, loads_study_config
+
+    text = TINY.replace('frequencies_px = [0.05, 0.15]', scene)
+    with pytest.raises(StudyConfigError, match=message):
+        loads_study_config(text, source="s.toml")

@@ -69,7 +69,7 @@ COLUMNS = ("kind", "texture_axis", "texture_level", "frequency_px", "contrast", 
 
 # --------------------------------------------------------------------------- one cell
 def _cell_path(cfg: StudyConfig, kind: str, level: float, contrast: float, seed: int) -> str:
-    tag = "f" if cfg.axis == "frequency" else "e"
+    tag = {"frequency": "f", "edge_density": "e"}.get(cfg.axis, f"{cfg.axis}=")
     return f"cells/{kind}/{tag}{level:g}_c{contrast:g}_s{seed}.json"
 
 
@@ -84,6 +84,24 @@ def _fingerprint(cfg: StudyConfig, cell: tuple[str, float, float, int]) -> str:
 
 def _f(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _swept_sample(cfg: StudyConfig, kind: str, level: Any, contrast: float, seed: int,
+                  renderer: Any) -> tuple:
+    """A cell of a ``sweep_key`` study: the dataset config of the cell, its sample ``seed``."""
+    from synth.dataset.sampling import effective_frequency_px
+    from synth.validate.pairs import render_sample
+
+    rig = cfg.rig
+    config = {"seed": 0, "rig": {"width": rig.width, "height": rig.height, "fx": rig.fx,
+                                 "baseline": rig.baseline},
+              "scene": {"base": kind, "texture": cfg.texture, "contrast": contrast},
+              "photometric": {"noise_sigma": cfg.noise_sigma}}
+    section, _, key = cfg.axis.partition(".")
+    config.setdefault(section, {})[key] = level
+    pair, images, scene, _ = render_sample(config, seed, renderer)
+    frequency = effective_frequency_px(scene, fx=rig.fx)
+    return pair, images, scene, math.nan if frequency is None else frequency
 
 
 _RESOLVED: dict[str, Any] = {}
@@ -140,16 +158,19 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
 
     kind, level, contrast, seed = cell
     rig = cfg.rig
-    scene = retexture(get_preset(kind, seed=seed), fx=rig.fx, contrast=contrast,
-                      kind=cfg.texture, frequency_px=level if cfg.axis == "frequency" else None)
-    frequency = level
-    if cfg.axis == "edge_density":
-        search = match_edge_density(scene, rig, level, renderer=renderer)
-        scene, frequency = search.scene, search.frequency_px
-    pair = render_pair(scene, rig, renderer=renderer)
-    noise_seed = [seed, zlib.crc32(f"{kind}/{level!r}/{contrast!r}".encode())]
-    images = apply_photometric(pair.left, pair.right,
-                               PhotometricParams(noise_sigma=cfg.noise_sigma), rng=noise_seed)
+    if cfg.axis in ("frequency", "edge_density"):
+        scene = retexture(get_preset(kind, seed=seed), fx=rig.fx, contrast=contrast,
+                          kind=cfg.texture, frequency_px=level if cfg.axis == "frequency" else None)
+        frequency = level
+        if cfg.axis == "edge_density":
+            search = match_edge_density(scene, rig, level, renderer=renderer)
+            scene, frequency = search.scene, search.frequency_px
+        pair = render_pair(scene, rig, renderer=renderer)
+        noise_seed = [seed, zlib.crc32(f"{kind}/{level!r}/{contrast!r}".encode())]
+        images = apply_photometric(pair.left, pair.right,
+                                   PhotometricParams(noise_sigma=cfg.noise_sigma), rng=noise_seed)
+    else:  # a dataset-config key: sample `seed` of that dataset config (synth.dataset.sampling)
+        pair, images, scene, frequency = _swept_sample(cfg, kind, level, contrast, seed, renderer)
     rho = edge_density(images.left)
     pixels = rig.width * rig.height
     rows = []

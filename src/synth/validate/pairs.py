@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["PairSpec", "pair_fingerprint", "render_pair_folder", "verify_pair_folder",
+__all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder", "verify_pair_folder",
            "read_pair_folder", "max_disparity_for"]
 
 RECORD = "files.json"
@@ -73,30 +73,42 @@ def _files_of(folder: Path) -> list[tuple[str, Path]]:
     return [(p.name, p) for p in sorted(folder.iterdir()) if p.is_file() and p.name != RECORD]
 
 
-def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
-    """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
-    from matcher.io import atomic_write_bytes, encode_png
-    from matcher.regions import REGIONS, region_masks
+def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: Any = None,
+                  value: Any = None) -> tuple[Any, Any, Any, Any]:
+    """Sample ``seed`` of a dataset config (dict form), with ``scene_hook(scene, rig, value)``
+    applied to its drawn scene: ``(pair, images, scene, draw)``, ``pair`` the exact render,
+    ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
     from synth.dataset.config import config_from_dict
-    from synth.dataset.integrity import completion_record
     from synth.dataset.sampling import draw_sample, stream
-    from synth.export import write_pair
     from synth.pair import render_pair
     from synth.photometric import apply_photometric
     from synth.texture_control import match_edge_density
-    from synth.validate.axes import get_axis
 
-    axis = get_axis(spec.axis)
-    config = config_from_dict(spec.config, source=f"validate {spec.axis}={spec.value!r}")
-    draw = draw_sample(config, spec.seed)
+    config = config_from_dict(config_dict, source="sweep")
+    draw = draw_sample(config, seed)
     scene = draw.scene
-    if axis.scene is not None:
-        scene = axis.scene(scene, config.rig, spec.value)
+    if scene_hook is not None:
+        scene = scene_hook(scene, config.rig, value)
     if draw.edge_density is not None:
         scene = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer).scene
     pair = render_pair(scene, config.rig, renderer=renderer)
     images = apply_photometric(pair.left, pair.right, draw.photometric,
                                rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
+    return pair, images, scene, draw
+
+
+def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
+    """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
+    from matcher.io import atomic_write_bytes, encode_png
+    from matcher.regions import REGIONS, region_masks
+    from synth.dataset.integrity import completion_record
+    from synth.export import write_pair
+    from synth.validate.axes import get_axis
+
+    axis = get_axis(spec.axis)
+    pair, images, scene, draw = render_sample(spec.config, spec.seed, renderer,
+                                              scene_hook=axis.scene, value=spec.value)
+    width = pair.rig.width
     masks = region_masks(pair.disp_left, pair.mask_left, pair.left)
     final = out / spec.folder
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
@@ -111,7 +123,7 @@ def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
                                fsync=False)
         record = {"axis": spec.axis, "value": spec.value, "seed": spec.seed,
                   "sample_seed": draw.seed, "fingerprint": pair_fingerprint(spec),
-                  "max_disparity": max_disparity_for(pair.disp_left, config.rig.width),
+                  "max_disparity": max_disparity_for(pair.disp_left, width),
                   "params": dict(draw.params),
                   "region_pixels": {n: int(masks[n].sum()) for n in REGIONS}}
         atomic_write_bytes(tmp / "sample.json",
