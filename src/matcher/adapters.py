@@ -14,7 +14,9 @@
   values are "no estimate". The callable runs in a child process of its own (started with
   ``spawn`` on first use and kept for later calls), so a crash, even a segfault, and a hang (it
   is killed after ``timeout`` seconds and a fresh child started) are recorded, never fatal. The
-  child is killed if this process dies (Linux ``PR_SET_PDEATHSIG``).
+  child is killed if this process dies (Linux ``PR_SET_PDEATHSIG``; Linux ties it to the
+  *thread* that started the child, so a child started from a thread that then ends is killed
+  too, and the next call starts a new one).
 - ``cmd:TEMPLATE``: any program, a shell command line with ``{left}`` and ``{right}`` (PNG
   images the adapter writes), ``{out}`` (a PFM the program writes) or ``{out_png}`` (a KITTI-style
   16-bit PNG, disparity x 256, 0 = no estimate) and ``{max_disparity}``. Every path is

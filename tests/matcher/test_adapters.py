@@ -192,3 +192,35 @@ def test_strings_that_do_not_resolve_say_what_was_tried(spec, fragment):
         resolve_matcher(spec)
     assert fragment in str(info.value)
     assert isinstance(info.value, ValueError)
+
+
+def test_the_child_of_a_py_matcher_dies_with_its_parent(tmp_path):
+    import signal
+    import subprocess
+
+    import psutil
+
+    code = (f"import numpy as np, sys\n"
+            f"from matcher.adapters import resolve_matcher\n"
+            f"m = resolve_matcher('py:{HERE}:sleeping', timeout=600)\n"
+            f"print('go', flush=True)\n"
+            f"m.run(np.zeros((8, 8, 3), np.uint8), np.zeros((8, 8, 3), np.uint8), max_disparity=2)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE)
+    try:
+        assert proc.stdout.readline().strip() == b"go"
+        parent = psutil.Process(proc.pid)
+        deadline = time.monotonic() + 60
+        while not parent.children(recursive=True):
+            assert time.monotonic() < deadline, "the matcher's child process did not start"
+            time.sleep(0.05)
+        time.sleep(1.0)  # let it reach the user's call
+        children = parent.children(recursive=True)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+        gone, alive = psutil.wait_procs(children, timeout=20)
+        assert not alive, alive
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()

@@ -57,8 +57,8 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.regions import REGIONS, region_scores
 
     folder = Path(folder)
+    m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
     root, records = _root(folder)
-    m = resolve_matcher(matcher, timeout=timeout)
     if out is None:
         slug = "".join(c if c.isalnum() else "_" for c in m.spec)[:40]
         out = folder / "eval" / f"{slug}-{hashlib.sha256(m.spec.encode()).hexdigest()[:8]}"
