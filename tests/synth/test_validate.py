@@ -171,3 +171,15 @@ def test_cli_validate_bad_input(tmp_path):
     assert "Error: matcher 'sad': tried a built-in method 'sad'" in result.output
     result = runner.invoke(main, ["validate", "ct", "--out", str(tmp_path), "--axes", "nois"])
     assert result.exit_code == 2 and "--axes: unknown axis 'nois'" in result.output
+
+
+@pytest.mark.gl
+def test_a_hanging_matcher_times_out_per_sample_and_the_run_goes_on(tiny_suite, tmp_path,
+                                                                     renderer, monkeypatch):
+    monkeypatch.setenv("HANG_MARKER", str(tmp_path / "hung-once"))
+    res = run_validate(f"py:{HERE}:sleepy", out=tmp_path / "v", against=(), axes=("noise",),
+                       timeout=2.0, battery=False, progress=False)
+    rows = [r for r in _rows(res.results) if r["region"] == "all"]
+    errors = {(r["value"], r["seed"]): r["error"] for r in rows}
+    assert errors.pop(("0.0", "0")) == "timed out after 2 s"  # the first pair
+    assert set(errors.values()) == {""}  # a fresh child answered every later pair

@@ -21,3 +21,15 @@ def sad3(left, right, *, max_disparity):
 
 def broken(left, right, *, max_disparity):
     raise ZeroDivisionError("user bug")
+
+
+def sleepy(left, right, *, max_disparity):
+    """Hangs on its first call ever (it leaves the file $HANG_MARKER behind), answers later."""
+    import os
+    import time
+
+    marker = os.environ["HANG_MARKER"]
+    if not os.path.exists(marker):
+        open(marker, "w").close()
+        time.sleep(60)
+    return np.zeros(left.shape[:2], np.float32)
