@@ -11,8 +11,10 @@ Layout (each module imports only the ones above it in this list)::
     census  cost  select  haar  edges  metrics   building blocks
     cthw  adaptive                               the seed paper's methods
     match                                        the dispatcher over every method
+    regions  adapters                            validation regions; any matcher behind one string
 """
 
+from matcher.adapters import Matcher, MatcherError, MatcherFailure, MatcherOutcome, resolve_matcher
 from matcher.adaptive import RIGHT_WINDOWS, AdaptiveResult, match_awct, match_awsct, select_windows
 from matcher.census import census_transform, hamming
 from matcher.benchmarks import (
@@ -31,11 +33,20 @@ from matcher.edges import CANNY_HIGH, CANNY_IMPLS, CANNY_LOW, CANNY_SIGMA, canny
 from matcher.haar import HAAR_NORMS, HaarBands, haar2d, ihaar2d
 from matcher.match import METHODS, match
 from matcher.metrics import Metrics, evaluate, pobmp, rms
+from matcher.regions import REGIONS, region_masks, region_scores
 from matcher.patterns import MAX_WINDOW, n_bits, n_words, sparse_pattern, spiral_offsets
 from matcher.result import MatchResult, OpCounts
 from matcher.select import winner_takes_all
 
 __all__ = [
+    "Matcher",
+    "MatcherError",
+    "MatcherFailure",
+    "MatcherOutcome",
+    "resolve_matcher",
+    "REGIONS",
+    "region_masks",
+    "region_scores",
     "Eth3dMetrics",
     "Kitti2015Metrics",
     "KittiD1",

@@ -123,6 +123,16 @@ CASES = [
      2, ["nowhere"]),
     ("bench dataset: zero workers", ["bench", "dataset", "--workers", "0", "--out", "o"], 2,
      ["--workers"]),
+    ("bench validate: bad workers", ["bench", "validate", "--workers", "x", "--out", "o"], 2,
+     ["--workers"]),
+    ("validate: a MATCHER that does not resolve", ["validate", "sad", "--out", "o"], 2,
+     ["matcher 'sad'", "tried a built-in method"]),
+    ("validate: unknown axis", ["validate", "ct:9", "--out", "o", "--axes", "nois"], 2,
+     ["--axes", "nois"]),
+    ("eval-dataset: a folder without samples", ["eval-dataset", "empty", "--matcher", "ct"], 2,
+     ["no samples", "--keep-pairs"]),
+    ("eval-dataset: a MATCHER that does not resolve",
+     ["eval-dataset", "empty", "--matcher", "py:nowhere_xyz:f"], 2, ["nowhere_xyz"]),
 ]
 
 

@@ -7,9 +7,10 @@ with ``stereoforge --debug``. Nothing in the library imports this package.
 
 - :mod:`synth.cli.rendering` — ``presets``, ``render``, ``demo``
 - :mod:`synth.cli.datasets` — ``dataset``
-- :mod:`synth.cli.matching` — ``match``, ``eval``
+- :mod:`synth.cli.matching` — ``match``, ``eval``, ``eval-dataset``
 - :mod:`synth.cli.jobs` — ``paper``, ``study``, ``golden``
-- :mod:`synth.cli.bench` — ``bench render|match|paper|dataset``
+- :mod:`synth.cli.validating` — ``validate``
+- :mod:`synth.cli.bench` — ``bench render|match|paper|dataset|validate``
 """
 
 from __future__ import annotations
@@ -22,8 +23,9 @@ from synth.cli.bench import bench
 from synth.cli.datasets import dataset
 from synth.cli.errors import BoundaryGroup, set_debug
 from synth.cli.jobs import golden, paper, study
-from synth.cli.matching import eval_cmd, match_cmd
+from synth.cli.matching import eval_cmd, eval_dataset_cmd, match_cmd
 from synth.cli.rendering import demo, presets, render
+from synth.cli.validating import validate
 
 __all__ = ["main"]
 
@@ -36,7 +38,8 @@ def main() -> None:
     """stereoforge: labelled stereo data with exact ground truth, and census matchers."""
 
 
-for _command in (bench, dataset, demo, eval_cmd, golden, match_cmd, paper, presets, render, study):
+for _command in (bench, dataset, demo, eval_cmd, eval_dataset_cmd, golden, match_cmd, paper, presets, render, study,
+                 validate):
     main.add_command(_command)
 
 

@@ -46,12 +46,14 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
 @click.option("--isa", default="native", show_default=True,
               type=LazyChoice("synth.jobs.bench_match:ISAS"),
               help="avx2: also time an AVX2-only numba build (a fresh process) beside this CPU's.")
-def bench_match_cmd(out, repeats, isa) -> None:
+@click.option("--matcher", "matchers", multiple=True, metavar="MATCHER",
+              help="Also time this MATCHER string (NAME[:WINDOW], py:..., cmd:...); repeatable.")
+def bench_match_cmd(out, repeats, isa, matchers) -> None:
     """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
     from synth.jobs.bench_match import bench_match_isas, peak_memory
     from synth.jobs.bench_render import write_table
 
-    rows = bench_match_isas(isa, repeats=repeats)
+    rows = bench_match_isas(isa, repeats=repeats, matchers=matchers)
     click.echo(write_table(rows, Path(out), "match"))
     memory = []
     for method, aggregate, lr_check in (("ct", None, False), ("ct", 5, True), ("sct", None, False)):
@@ -134,3 +136,31 @@ def bench_realism_cmd(out, config, count, data, workers, tolerance, backend) -> 
     click.echo(write_table(result.summary, Path(out), "realism"))
     write_table(result.samples, Path(out), "realism-samples")
     click.echo(format_verdict(result, tolerance=tolerance))
+
+
+@bench.command("validate")
+@out_dir_option(default="out/bench")
+@click.option("--matcher", default="ct:9", show_default=True, help="MATCHER string validated.")
+@click.option("--suite", default="quick", show_default=True, type=click.Choice(["quick", "full"]))
+@click.option("--against", default="ct:9,sgbm:5", show_default=True)
+@click.option("--workers", "workers_text", default="1,2", show_default=True,
+              help="Comma-separated worker counts, one run each.")
+@click.option("--repeats", default=1, show_default=True, type=click.IntRange(min=1))
+@backend_option
+@click.option("--skip-battery", is_flag=True, hidden=True,
+              help="Internal: time pairs and matching only.")
+def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, backend,
+                       skip_battery) -> None:
+    """Seconds of a whole `validate` run from an empty folder (quick suite target: 120 s)."""
+    from synth.jobs.bench_render import write_table
+    from synth.jobs.bench_validate import bench_validate
+
+    parts = [w.strip() for w in workers_text.split(",") if w.strip()]
+    if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
+        fail(ValueError(f"--workers must be positive ints separated by commas, got "
+                         f"{workers_text!r}"))
+    rows = bench_validate(matcher=matcher, suite=suite,
+                          against=[a.strip() for a in against.split(",") if a.strip()],
+                          workers=[int(p) for p in parts], repeats=repeats, backend=backend,
+                          battery=not skip_battery, progress=True)
+    click.echo(write_table(rows, Path(out), "validate"))

@@ -33,7 +33,12 @@ def paper(data, size, out) -> None:
 @out_dir_option()
 @workers_option
 @backend_option
-def study(config, out, workers, backend) -> None:
+@click.option("--matcher", "matchers", multiple=True, metavar="MATCHER",
+              help="Also run this MATCHER string (NAME[:WINDOW], py:..., cmd:...) on every "
+                   "cell; repeatable.")
+@click.option("--keep-pairs", is_flag=True,
+              help="Keep every cell's pair in --out/pairs/ for `stereoforge eval-dataset`.")
+def study(config, out, workers, backend, matchers, keep_pairs) -> None:
     """Texture frequency x window x method study from CONFIG (a .toml file or a shipped name).
 
     Resumable: rerun the same command and only the missing cells are computed.
@@ -44,7 +49,8 @@ def study(config, out, workers, backend) -> None:
         start_worker_server(["synth.jobs.study"])
     from synth.jobs.study import run_study
 
-    path = run_study(config, out=out, workers=workers, progress=True, backend=backend)
+    path = run_study(config, out=out, workers=workers, progress=True, backend=backend,
+                     matchers=matchers, keep_pairs=keep_pairs)
     click.echo(f"results: {path / 'results.csv'}, summary: {path / 'summary.md'}")
 
 

@@ -9,7 +9,7 @@ import click
 
 from synth.cli.options import fail, method_option
 
-__all__ = ["eval_cmd", "match_cmd"]
+__all__ = ["eval_cmd", "eval_dataset_cmd", "match_cmd"]
 
 
 @click.command("match")
@@ -91,3 +91,23 @@ def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json, benchmark
     for region, metrics in report.items():
         click.echo(f"{region:<8} " + " ".join(f"{metrics[k]:>9.3f}" if isinstance(metrics[k], float)
                                               else f"{metrics[k]:>9}" for k in keys))
+
+
+@click.command("eval-dataset")
+@click.argument("folder", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--matcher", required=True, metavar="MATCHER",
+              help="NAME[:WINDOW], py:MODULE:FUNCTION, py:FILE.py:FUNCTION or cmd:TEMPLATE.")
+@click.option("--out", "out", default=None, type=click.Path(file_okay=False, path_type=Path),
+              help="Output folder (default: FOLDER/eval/<matcher>).")
+@click.option("--max-disp", "max_disp", default=None, type=click.IntRange(min=1),
+              help="Search range (default: the sample's, else calib.txt's ndisp).")
+@click.option("--timeout", default=60.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True),
+              help="Seconds per pair before a py: or cmd: matcher is killed.")
+def eval_dataset_cmd(folder, matcher, out, max_disp, timeout) -> None:
+    """Score MATCHER on every sample of FOLDER: a dataset, or a study kept with --keep-pairs."""
+    from synth.jobs.eval_dataset import eval_dataset
+
+    path = eval_dataset(folder, matcher=matcher, out=out, max_disparity=max_disp,
+                        timeout=timeout)
+    click.echo(f"results: {path}")

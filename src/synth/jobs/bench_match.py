@@ -121,6 +121,7 @@ def bench_match(
     sizes: Sequence[tuple[int, int, int]] = ((640, 480, 64), (1280, 960, 128)),
     repeats: int = 3,
     rng: int = 0,
+    matchers: Sequence[str] = (),
 ) -> list[BenchRow]:
     """Time the census matchers against OpenCV on synthetic pairs.
 
@@ -132,11 +133,17 @@ def bench_match(
         configurations of one size.
     rng : int
         Seed of the synthetic pair.
+    matchers : sequence of str
+        MATCHER strings (:func:`matcher.adapters.resolve_matcher`) timed beside :data:`RUNS`,
+        interleaved with them, on the same pair given as (H, W, 3) uint8 RGB (the grey pair in
+        every channel); the label is the string. A ``py:`` matcher's time is the caller's wall
+        time, its child process's round trip included. A failure raises
+        :class:`matcher.adapters.MatcherFailure`.
 
     Returns
     -------
     list of BenchRow
-        One row per size and entry of :data:`RUNS`.
+        One row per size and entry of :data:`RUNS`, then one per matcher.
 
     Examples
     --------
@@ -144,6 +151,9 @@ def bench_match(
     >>> [r.label for r in rows][:2]
     ['CT 5x5', 'CT 9x9']
     """
+    from matcher.adapters import resolve_matcher
+
+    resolved = [resolve_matcher(spec) for spec in matchers]
     rows: list[BenchRow] = []
     for width, height, n_disp in sizes:
         shift = n_disp // 3
@@ -158,7 +168,18 @@ def bench_match(
                 ).disparity
 
             fns[label] = run
-        timed = _time_interleaved(fns, repeats)
+        rgb = [np.ascontiguousarray(np.repeat(g[:, :, None], 3, axis=2)) for g in (left, right)]
+        for m in resolved:
+
+            def run_user(m=m):
+                holder[m.spec] = m(*rgb, max_disparity=n_disp)
+
+            fns[m.spec] = run_user
+        try:
+            timed = _time_interleaved(fns, repeats)
+        finally:
+            for m in resolved:
+                m.close()
         measured = {}
         for label, (seconds, best) in timed.items():
             disp = holder[label][:, n_disp:]
@@ -178,7 +199,8 @@ ISAS = ("native", "avx2")
 
 
 def bench_match_isas(isa: str = "native", *, sizes: Sequence[tuple[int, int, int]] = (
-        (640, 480, 64), (1280, 960, 128)), repeats: int = 3, rng: int = 0) -> list[dict]:
+        (640, 480, 64), (1280, 960, 128)), repeats: int = 3, rng: int = 0,
+        matchers: Sequence[str] = ()) -> list[dict]:
     """:func:`bench_match` rows with an ``isa`` column: this CPU's build, and an AVX2-only one.
 
     ``isa="avx2"`` runs the same benchmark again in a fresh process whose numba target is an
@@ -197,13 +219,13 @@ def bench_match_isas(isa: str = "native", *, sizes: Sequence[tuple[int, int, int
         raise ValueError(f"isa must be one of {', '.join(ISAS)}, got {isa!r}")
     native = describe_machine(backend=None).numba_target
     rows = [{"isa": native, **asdict(r)}
-            for r in bench_match(sizes=sizes, repeats=repeats, rng=rng)]
+            for r in bench_match(sizes=sizes, repeats=repeats, rng=rng, matchers=matchers)]
     if isa == "avx2":
         code = ("import json, sys; from dataclasses import asdict\n"
                 "from synth.jobs.bench_match import bench_match\n"
                 "from synth.jobs.machine import describe_machine\n"
                 f"rows = bench_match(sizes={tuple(map(tuple, sizes))!r}, repeats={repeats}, "
-                f"rng={rng})\n"
+                f"rng={rng}, matchers={tuple(matchers)!r})\n"
                 "print(json.dumps([describe_machine(backend=None).numba_target,"
                 " [asdict(r) for r in rows]]))\n")
         out = subprocess.run([sys.executable, "-c", code], env={**os.environ, **AVX2_TARGET},

@@ -32,6 +32,7 @@ via :func:`synth.texture_control.edge_density`.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import hashlib
 import io
 import json
@@ -39,7 +40,9 @@ import math
 import os
 import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
+
+import numpy as np
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
@@ -66,7 +69,7 @@ COLUMNS = ("kind", "texture_axis", "texture_level", "frequency_px", "contrast", 
 
 # --------------------------------------------------------------------------- one cell
 def _cell_path(cfg: StudyConfig, kind: str, level: float, contrast: float, seed: int) -> str:
-    tag = "f" if cfg.axis == "frequency" else "e"
+    tag = {"frequency": "f", "edge_density": "e"}.get(cfg.axis, f"{cfg.axis}=")
     return f"cells/{kind}/{tag}{level:g}_c{contrast:g}_s{seed}.json"
 
 
@@ -74,6 +77,8 @@ def _fingerprint(cfg: StudyConfig, cell: tuple[str, float, float, int]) -> str:
     spec = {"cell": list(cell), "axis": cfg.axis, "texture": cfg.texture,
             "rig": cfg.rig.to_dict(), "noise_sigma": cfg.noise_sigma, "methods": cfg.methods,
             "windows": cfg.windows, "max_disparity": cfg.max_disparity, "delta": cfg.delta}
+    if cfg.matchers:  # only then: the fingerprints of the built-in studies stay as they were
+        spec["matchers"] = list(cfg.matchers)
     return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
 
 
@@ -81,7 +86,69 @@ def _f(x: float | None) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
 
 
-def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], renderer: Any) -> dict:
+def _swept_sample(cfg: StudyConfig, kind: str, level: Any, contrast: float, seed: int,
+                  renderer: Any) -> tuple:
+    """A cell of a ``sweep_key`` study: the dataset config of the cell, its sample ``seed``."""
+    from synth.dataset.sampling import effective_frequency_px
+    from synth.validate.pairs import render_sample
+
+    rig = cfg.rig
+    config = {"seed": 0, "rig": {"width": rig.width, "height": rig.height, "fx": rig.fx,
+                                 "baseline": rig.baseline},
+              "scene": {"base": kind, "texture": cfg.texture, "contrast": contrast},
+              "photometric": {"noise_sigma": cfg.noise_sigma}}
+    section, _, key = cfg.axis.partition(".")
+    config.setdefault(section, {})[key] = level
+    pair, images, scene, _ = render_sample(config, seed, renderer)
+    frequency = effective_frequency_px(scene, fx=rig.fx)
+    return pair, images, scene, math.nan if frequency is None else frequency
+
+
+_RESOLVED: dict[str, Any] = {}
+
+
+def _user_matcher(spec: str) -> Any:
+    """The resolved MATCHER string, one per process (a py: matcher keeps its child process)."""
+    from matcher.adapters import resolve_matcher
+
+    if spec not in _RESOLVED:
+        _RESOLVED[spec] = resolve_matcher(spec)
+    return _RESOLVED[spec]
+
+
+def _keep_pair(out: Path, index: int, cfg: StudyConfig, record: dict, pair: Any, images: Any,
+               scene: Any, seed: int) -> None:
+    """Write the cell's pair (as the matchers saw it) to ``out/pairs/NNNNNN`` atomically, with a
+    ``sample.json`` that :func:`synth.dataset.manifest.read_manifest` reads."""
+    import dataclasses
+    import shutil
+
+    from synth.export import write_pair
+
+    final = out / "pairs" / f"{index:06d}"
+    tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    try:
+        degraded = dataclasses.replace(pair, left=images.left, right=images.right)
+        write_pair(degraded, tmp, scene=scene, seed=seed, preview=False, fsync=False)
+        sample = {"index": index, "seed": seed, "dir": final.name,
+                  "params": {"kind": record["kind"], "texture_axis": record["texture_axis"],
+                             "texture_level": record["texture_level"],
+                             "contrast": record["contrast"], "noise_sigma": cfg.noise_sigma,
+                             "max_disparity": cfg.max_disparity},
+                  "stats": {"edge_density": record["edge_density"],
+                            "frequency_px": record["frequency_px"]}}
+        atomic_write_bytes(tmp / "sample.json", _json(sample), fsync=False)
+        shutil.rmtree(final, ignore_errors=True)
+        os.rename(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], renderer: Any,
+                  keep: tuple[Path, int] | None = None) -> dict:
     from matcher import match
     from matcher.metrics import evaluate
     from scenes import get_preset
@@ -91,16 +158,19 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
 
     kind, level, contrast, seed = cell
     rig = cfg.rig
-    scene = retexture(get_preset(kind, seed=seed), fx=rig.fx, contrast=contrast,
-                      kind=cfg.texture, frequency_px=level if cfg.axis == "frequency" else None)
-    frequency = level
-    if cfg.axis == "edge_density":
-        search = match_edge_density(scene, rig, level, renderer=renderer)
-        scene, frequency = search.scene, search.frequency_px
-    pair = render_pair(scene, rig, renderer=renderer)
-    noise_seed = [seed, zlib.crc32(f"{kind}/{level!r}/{contrast!r}".encode())]
-    images = apply_photometric(pair.left, pair.right,
-                               PhotometricParams(noise_sigma=cfg.noise_sigma), rng=noise_seed)
+    if cfg.axis in ("frequency", "edge_density"):
+        scene = retexture(get_preset(kind, seed=seed), fx=rig.fx, contrast=contrast,
+                          kind=cfg.texture, frequency_px=level if cfg.axis == "frequency" else None)
+        frequency = level
+        if cfg.axis == "edge_density":
+            search = match_edge_density(scene, rig, level, renderer=renderer)
+            scene, frequency = search.scene, search.frequency_px
+        pair = render_pair(scene, rig, renderer=renderer)
+        noise_seed = [seed, zlib.crc32(f"{kind}/{level!r}/{contrast!r}".encode())]
+        images = apply_photometric(pair.left, pair.right,
+                                   PhotometricParams(noise_sigma=cfg.noise_sigma), rng=noise_seed)
+    else:  # a dataset-config key: sample `seed` of that dataset config (synth.dataset.sampling)
+        pair, images, scene, frequency = _swept_sample(cfg, kind, level, contrast, seed, renderer)
     rho = edge_density(images.left)
     pixels = rig.width * rig.height
     rows = []
@@ -121,6 +191,20 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
                 "census_comparisons": None if ops is None else int(ops.census_comparisons),
                 "hamming_words": None if ops is None else int(ops.hamming_words),
             })
+    errors = {}
+    for spec in cfg.matchers:
+        outcome = _user_matcher(spec).run(images.left, images.right,
+                                          max_disparity=cfg.max_disparity)
+        disp = outcome.disparity
+        if disp is None:  # a failure scores as no estimate anywhere; its message is kept
+            errors[spec] = outcome.error
+            disp = np.full(pair.disp_left.shape, np.inf, np.float32)
+        m = evaluate(disp, pair.disp_left, delta=cfg.delta, region="nonocc",
+                     occlusion_mask=pair.mask_left)
+        m_all = evaluate(disp, pair.disp_left, delta=cfg.delta)
+        rows.append({"method": spec, "window": None, "pobmp": m.pobmp, "pobmp_all": m_all.pobmp,
+                     "rms": _f(m.rms), "invalid": m.invalid, "census_comparisons": None,
+                     "hamming_words": None})
     for row in rows:
         c = row["census_comparisons"]
         row["census_per_pixel"] = None if c is None else c / pixels
@@ -129,17 +213,23 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
             from matcher import n_bits
             ref = 2 * pixels * n_bits(row["window"])
         row["ops_vs_ct"] = None if c is None else c / ref
-    return {"kind": kind, "texture_axis": cfg.axis, "texture_level": level,
-            "frequency_px": float(frequency), "contrast": contrast, "seed": seed,
-            "edge_density": rho, "rows": rows}
+    record = {"kind": kind, "texture_axis": cfg.axis, "texture_level": level,
+              "frequency_px": float(frequency), "contrast": contrast, "seed": seed,
+              "edge_density": rho, "rows": rows}
+    if errors:
+        record["matcher_errors"] = errors
+    if keep is not None:
+        _keep_pair(keep[0], keep[1], cfg, record, pair, images, scene, seed)
+    return record
 
 
 class _CellTask:
     """Picklable per-cell job for :func:`synth.dataset.engine.run_tasks`: computes and writes a cell."""
 
     def __init__(self, cfg: StudyConfig, out: Path, cells: list, backend: str,
-                 threads: int | None) -> None:
+                 threads: int | None, keep_pairs: bool = False) -> None:
         self.cfg, self.out, self.cells, self.threads = cfg, Path(out), cells, threads
+        self.keep_pairs = keep_pairs
         self.width, self.height, self.backend = cfg.rig.width, cfg.rig.height, backend
 
     def __call__(self, index: int, renderer: Any) -> dict:
@@ -148,7 +238,8 @@ class _CellTask:
 
             numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
         cell = self.cells[index]
-        record = _compute_cell(self.cfg, cell, renderer)
+        record = _compute_cell(self.cfg, cell, renderer,
+                               (self.out, index) if self.keep_pairs else None)
         record["fingerprint"] = _fingerprint(self.cfg, cell)
         path = self.out / _cell_path(self.cfg, *cell)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -182,7 +273,8 @@ def _results_csv(cfg: StudyConfig, records: list[dict]) -> bytes:
 
 
 def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int = 1,
-              progress: bool = True, backend: str = "auto") -> Path:
+              progress: bool = True, backend: str = "auto", matchers: Sequence[str] = (),
+              keep_pairs: bool = False) -> Path:
     """Run a study (resumable) and write its results, summary and plots into ``out``.
 
     Parameters
@@ -196,6 +288,16 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     progress : bool
         Show a progress bar on stderr (:func:`synth.progress.progress`).
     backend : {"auto", "egl", "osmesa"}
+    matchers : sequence of str
+        MATCHER strings (:func:`matcher.adapters.resolve_matcher`: ``py:...``, ``cmd:...``,
+        ``ct:9``) run once on every cell's pair beside the config's methods x windows; their
+        rows have ``method`` = the string and an empty ``window`` and census columns. A failure
+        scores as "no estimate" (PoBMP 100) and its message is kept in the cell's JSON
+        (``matcher_errors``). Not drawn in the heatmaps and summary tables (they are per window).
+    keep_pairs : bool
+        Also keep every cell's pair, as the matchers saw it, in ``out/pairs/NNNNNN/`` (MiddEval3
+        folders with ``sample.json``; the index is the cell's): ``stereoforge eval-dataset
+        out/pairs --matcher M`` scores another matcher on exactly these pairs later.
 
     Returns
     -------
@@ -204,6 +306,13 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     """
     
     cfg = load_study_config(config)
+    if matchers:
+        from matcher.adapters import resolve_matcher
+
+        specs = tuple(dict.fromkeys(str(m).strip() for m in matchers))
+        for spec in specs:
+            resolve_matcher(spec)  # a string that does not resolve fails here, once
+        cfg = dataclasses.replace(cfg, matchers=specs)
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}")
     out = Path(out)
@@ -213,9 +322,10 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     cells = cfg.cells()
     prints = [_fingerprint(cfg, c) for c in cells]
     pending = [i for i, c in enumerate(cells)
-               if _load_cell(out / _cell_path(cfg, *c), prints[i]) is None]
+               if _load_cell(out / _cell_path(cfg, *c), prints[i]) is None
+               or (keep_pairs and not (out / "pairs" / f"{i:06d}" / "sample.json").is_file())]
     threads = max(1, (os.cpu_count() or 1) // workers) if workers > 1 else None
-    task = _CellTask(cfg, out, cells, backend, threads)
+    task = _CellTask(cfg, out, cells, backend, threads, keep_pairs)
     bar = progress_bar(total=len(cells), initial=len(cells) - len(pending), enabled=progress,
                        desc=f"study {cfg.name}", unit="cell")
     try:

@@ -48,6 +48,10 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
                               array=True, distinct=True, doc="texture frequencies, cycles/px"),
         "edge_densities": Key("float", None, lo=0, hi=1, lo_open=True, hi_open=True,
                               array=True, distinct=True, doc="target Canny edge densities"),
+        "sweep_key": Key("str", None, doc="a dataset-config key 'section.key' swept instead of "
+                                          "the texture (e.g. photometric.gain)"),
+        "sweep_values": Key("float", None, array=True, distinct=True,
+                            doc="values of sweep_key, one level each"),
         "contrasts": Key("float", (0.8,), lo=0, hi=1, lo_open=True, array=True,
                          distinct=True, doc="texture contrasts"),
         "noise_sigma": Key("float", 2.0, lo=0, hi=64, doc="sensor noise, grey levels"),
@@ -81,7 +85,7 @@ class StudyConfig:
     rig: StereoRig
     kinds: tuple[str, ...]
     texture: str
-    axis: str  # "frequency" or "edge_density"
+    axis: str  # "frequency", "edge_density" or a swept dataset-config key "section.key"
     levels: tuple[float, ...]
     contrasts: tuple[float, ...]
     noise_sigma: float
@@ -92,6 +96,7 @@ class StudyConfig:
     delta: float
     source: str = "<string>"
     text: str = ""
+    matchers: tuple[str, ...] = ()  # MATCHER strings run once per cell (window column empty)
 
     def cells(self) -> list[tuple[str, float, float, int]]:
         """``(kind, level, contrast, seed)`` of every cell, in results order."""
@@ -126,10 +131,16 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
         return values[key] if key in values else SCHEMA[table][key].default
 
     has_f, has_e = "frequencies_px" in scene, "edge_densities" in scene
-    axis_key = "frequencies_px" if has_f else "edge_densities"
-    if has_f == has_e:
-        raise toml.fail(("scene", axis_key), "exactly one of frequencies_px (cycles per pixel) "
-                        "and edge_densities", "both" if has_f else "neither")
+    has_s = "sweep_values" in scene
+    axis_key = "frequencies_px" if has_f else "edge_densities" if has_e else "sweep_values"
+    if has_f + has_e + has_s != 1:
+        raise toml.fail(("scene", axis_key), "exactly one of frequencies_px (cycles per pixel), "
+                        "edge_densities and sweep_values",
+                        "neither" if not has_f + has_e + has_s else "more than one")
+    sweep_key = scene.get("sweep_key")
+    if has_s != (sweep_key is not None):
+        raise toml.fail(("scene", "sweep_key" if has_s else "sweep_values"),
+                        "sweep_key and sweep_values together", "only one of them")
     methods, windows = get("match", "methods"), get("match", "windows")
     if "bm" in methods and min(windows) < 5:
         raise toml.fail(("match", "windows"), "windows >= 5 when methods include 'bm'",
@@ -147,13 +158,45 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
     if max(windows) > side:
         raise toml.fail(("match", "windows"), f"windows that fit in the image, <= {side}",
                         repr(list(windows)), fix="use smaller windows or a larger rig")
+    levels = scene[axis_key]
+    if has_s:
+        levels = _sweep_levels(toml, sweep_key, levels)
     return StudyConfig(
         name=top.get("name", Path(source).stem), description=get("", "description"),
         rig=the_rig, kinds=get("scene", "kinds"), texture=get("scene", "texture"),
-        axis="frequency" if has_f else "edge_density", levels=scene[axis_key],
+        axis="frequency" if has_f else "edge_density" if has_e else sweep_key, levels=levels,
         contrasts=get("scene", "contrasts"), noise_sigma=get("scene", "noise_sigma"),
         seeds=get("", "seeds"), methods=methods, windows=windows, max_disparity=max_disp,
         delta=get("", "delta"), source=source, text=text)
+
+
+def _sweep_levels(toml: TomlSource, key: str, values: tuple) -> tuple:
+    """``values`` checked as values of the dataset-config key ``key`` (ints where it takes ints)."""
+    from synth.dataset.config import SCHEMA as DATASET_SCHEMA
+    from synth.dataset.config import config_from_dict
+
+    section, _, name = key.partition(".")
+    keys = [f"{s}.{k}" for s in ("rig", "scene", "photometric") for k in DATASET_SCHEMA[s]
+            if (s, k) not in _NOT_SWEPT]
+    if key not in keys:
+        raise toml.fail(("scene", "sweep_key"), f"a dataset-config key: {', '.join(keys)}",
+                        repr(key))
+    spec = DATASET_SCHEMA[section][name]
+    out = []
+    for v in values:
+        v = int(v) if spec.kind == "int" and float(v).is_integer() else v
+        try:
+            config_from_dict({section: {name: v}})
+        except StereoforgeError as exc:
+            raise toml.fail(("scene", "sweep_values"), f"values of {key}", repr(v),
+                            fix=str(exc).split(": ", 1)[-1]) from None
+        out.append(v)
+    return tuple(out)
+
+
+#: Dataset-config keys a study sets itself (the rig's size and the scene) and cannot sweep.
+_NOT_SWEPT = {("rig", "width"), ("rig", "height"), ("rig", "fx"), ("scene", "base"),
+              ("scene", "texture"), ("scene", "contrast")}
 
 
 def list_studies() -> list[str]:

@@ -36,7 +36,9 @@ def _fmt(mean: float, half: float, digits: int = 1) -> str:
 
 
 def _level_label(cfg: StudyConfig, level: float) -> str:
-    return f"f={level:g}" if cfg.axis == "frequency" else f"ρ={level:g}"
+    if cfg.axis in ("frequency", "edge_density"):
+        return f"f={level:g}" if cfg.axis == "frequency" else f"ρ={level:g}"
+    return f"{cfg.axis.partition('.')[2]}={level:g}"
 
 
 def _table(header: list[str], body: list[list[str]]) -> list[str]:
@@ -99,8 +101,8 @@ def summarize(cfg: StudyConfig, rows: list[dict]) -> str:
     """
     levels, contrasts = cfg.levels, cfg.contrasts
     labels = [_level_label(cfg, lv) for lv in levels]
-    what = ("cycles per pixel at each object's centre depth" if cfg.axis == "frequency"
-            else "target edge density")
+    what = {"frequency": "cycles per pixel at each object's centre depth",
+            "edge_density": "target edge density"}.get(cfg.axis, f"dataset-config key {cfg.axis}")
     lines = [f"# Study `{cfg.name}`", "", cfg.description.strip(), "",
              f"- rig: {cfg.rig.width} x {cfg.rig.height}, fx = {cfg.rig.fx:g} px, baseline = "
              f"{cfg.rig.baseline:g} m; max_disparity = {cfg.max_disparity}, delta = {cfg.delta:g}",
@@ -169,7 +171,8 @@ def write_plots(cfg: StudyConfig, rows: list[dict], out: Path) -> None:
     import matplotlib.pyplot as plt
 
     labels = [f"{lv:g}" for lv in cfg.levels]
-    xlabel = "texture frequency (cycles/px)" if cfg.axis == "frequency" else "edge density target"
+    xlabel = {"frequency": "texture frequency (cycles/px)",
+              "edge_density": "edge density target"}.get(cfg.axis, cfg.axis)
     mean: dict[tuple, float] = {}
     groups: dict[tuple, list[float]] = {}
     for r in rows:

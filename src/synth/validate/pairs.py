@@ -1,0 +1,171 @@
+"""The pairs of a validation: one folder per axis x value x seed, rendered once, verified on reuse.
+
+A pair folder ``pairs/<axis>/<value>_s<seed>/`` is a Middlebury 2014 scene folder
+(:func:`synth.export.write_pair`: ``im0.png``, ``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``,
+``calib.txt``, ``scene.json``) plus the region masks ``mask_<region>.png`` (uint8, 255 = in the
+region; :func:`matcher.regions.region_masks` of the exact ground truth and the noise-free left
+image), ``sample.json`` (axis, value, seed, ``max_disparity``, drawn parameters, region sizes and
+the fingerprint of everything that determines the pair) and, written last, ``files.json``
+(size and SHA-256 of every file). The folder is built under a temporary name and renamed, so it
+exists only whole; a rerun reuses it when its fingerprint matches and every checksum verifies.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder", "verify_pair_folder",
+           "read_pair_folder", "max_disparity_for"]
+
+RECORD = "files.json"
+_PHOTOMETRIC_STREAM = 3  # synth.dataset.sampling's stream of the photometric noise
+_VERSION = 1
+
+
+@dataclass(frozen=True)
+class PairSpec:
+    """One pair of the plan: the axis, its value, the seed (sample index of the config)."""
+
+    axis: str
+    value: Any
+    seed: int
+    config: dict
+
+    @property
+    def folder(self) -> str:
+        return f"pairs/{self.axis}/{self.value:g}_s{self.seed}"
+
+
+def _canon(obj: Any) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"))
+
+
+def pair_fingerprint(spec: PairSpec) -> str:
+    """SHA-256 of what determines the pair: config, axis, value, seed and this layout's version."""
+    from synth.validate.axes import get_axis
+
+    axis = get_axis(spec.axis)
+    hook = None if axis.scene is None else f"{axis.scene.__module__}.{axis.scene.__qualname__}"
+    text = _canon({"config": spec.config, "axis": spec.axis, "value": spec.value,
+                   "seed": spec.seed, "scene_hook": hook, "version": _VERSION})
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def max_disparity_for(gt: np.ndarray, width: int) -> int:
+    """The search range of a pair: a multiple of 16 above its largest ground-truth disparity
+    (``16 * ceil((floor(max) + 2) / 16)``, at least 16), below the width."""
+    finite = gt[np.isfinite(gt)]
+    top = float(finite.max()) if finite.size else 0.0
+    return int(min(16 * math.ceil((math.floor(top) + 2) / 16), width - 1))
+
+
+def _files_of(folder: Path) -> list[tuple[str, Path]]:
+    return [(p.name, p) for p in sorted(folder.iterdir()) if p.is_file() and p.name != RECORD]
+
+
+def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: Any = None,
+                  value: Any = None) -> tuple[Any, Any, Any, Any]:
+    """Sample ``seed`` of a dataset config (dict form), with ``scene_hook(scene, rig, value)``
+    applied to its drawn scene: ``(pair, images, scene, draw)``, ``pair`` the exact render,
+    ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
+    from synth.dataset.config import config_from_dict
+    from synth.dataset.sampling import draw_sample, stream
+    from synth.pair import render_pair
+    from synth.photometric import apply_photometric
+    from synth.texture_control import match_edge_density
+
+    config = config_from_dict(config_dict, source="sweep")
+    draw = draw_sample(config, seed)
+    scene = draw.scene
+    if scene_hook is not None:
+        scene = scene_hook(scene, config.rig, value)
+    if draw.edge_density is not None:
+        scene = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer).scene
+    pair = render_pair(scene, config.rig, renderer=renderer)
+    images = apply_photometric(pair.left, pair.right, draw.photometric,
+                               rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
+    return pair, images, scene, draw
+
+
+def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
+    """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
+    from matcher.io import atomic_write_bytes, encode_png
+    from matcher.regions import REGIONS, region_masks
+    from synth.dataset.integrity import completion_record
+    from synth.export import write_pair
+    from synth.validate.axes import get_axis
+
+    axis = get_axis(spec.axis)
+    pair, images, scene, draw = render_sample(spec.config, spec.seed, renderer,
+                                              scene_hook=axis.scene, value=spec.value)
+    width = pair.rig.width
+    masks = region_masks(pair.disp_left, pair.mask_left, pair.left)
+    final = out / spec.folder
+    tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    try:
+        degraded = dataclasses.replace(pair, left=images.left, right=images.right)
+        write_pair(degraded, tmp, scene=scene, seed=draw.seed, preview=False, fsync=False)
+        for name in REGIONS:
+            atomic_write_bytes(tmp / f"mask_{name}.png",
+                               encode_png(masks[name].astype(np.uint8) * np.uint8(255)),
+                               fsync=False)
+        record = {"axis": spec.axis, "value": spec.value, "seed": spec.seed,
+                  "sample_seed": draw.seed, "fingerprint": pair_fingerprint(spec),
+                  "max_disparity": max_disparity_for(pair.disp_left, width),
+                  "params": dict(draw.params),
+                  "region_pixels": {n: int(masks[n].sum()) for n in REGIONS}}
+        atomic_write_bytes(tmp / "sample.json",
+                           (json.dumps(record, indent=1, sort_keys=True) + "\n").encode(),
+                           fsync=False)
+        atomic_write_bytes(tmp / RECORD, completion_record(spec.seed, _files_of(tmp)),
+                           fsync=False)
+        shutil.rmtree(final, ignore_errors=True)  # a stale or damaged folder of this pair
+        os.rename(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return record
+
+
+def verify_pair_folder(spec: PairSpec, out: Path) -> dict | None:
+    """The sample record of a finished folder whose fingerprint matches and whose every file
+    verifies against ``files.json``; None otherwise (then it is rendered again)."""
+    from synth.dataset.integrity import completion_record
+
+    folder = out / spec.folder
+    try:
+        stored = (folder / RECORD).read_bytes()
+        record = json.loads((folder / "sample.json").read_bytes())
+        listed = json.loads(stored)["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if record.get("fingerprint") != pair_fingerprint(spec):
+        return None
+    files = _files_of(folder)
+    if sorted(listed) != [n for n, _ in files] or completion_record(spec.seed, files) != stored:
+        return None
+    return record
+
+
+def read_pair_folder(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                            dict[str, np.ndarray]]:
+    """``left, right, gt, masks`` of a pair folder (RGB uint8 images, float32 GT, bool masks)."""
+    from matcher.io import read_image, read_pfm
+    from matcher.regions import REGIONS
+
+    left, right = read_image(folder / "im0.png"), read_image(folder / "im1.png")
+    gt = read_pfm(folder / "disp0GT.pfm")
+    masks = {n: read_image(folder / f"mask_{n}.png") > 0 for n in REGIONS}
+    return left, right, gt, masks

@@ -1,0 +1,59 @@
+"""Validation regions from exact ground truth, and region-wise scores (hand-picked cases)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from matcher.regions import (
+    DISCONTINUITY_RADIUS,
+    TEXTURELESS_ENERGY,
+    gradient_energy,
+    region_masks,
+    region_scores,
+)
+
+
+def test_regions_of_a_step_with_an_occluded_band_and_a_flat_half():
+    h, w = 20, 30
+    gt = np.full((h, w), 4.0, np.float32)
+    gt[:, 15:] = 9.0  # a depth edge between x = 14 and 15
+    gt[0, :] = np.inf  # no ground truth on the top row
+    occ = np.full((h, w), 255, np.uint8)
+    occ[:, 15:18] = 128
+    occ[0, :] = 0
+    image = np.zeros((h, w, 3), np.uint8)
+    rng = np.random.default_rng(0)
+    image[:, :15] = rng.integers(0, 256, (h, 15, 3))  # textured left half, flat right half
+    m = region_masks(gt, occ, image)
+    assert m["all"].sum() == (h - 1) * w and not m["all"][0].any()
+    assert m["occluded"].sum() == (h - 1) * 3 and (m["nonocc"] | m["occluded"] == m["all"]).all()
+    # discontinuity: within 3 px of the edge pixels (x = 14 and 15), and along the missing row
+    row = m["discontinuity"][10]
+    assert row.nonzero()[0].tolist() == list(range(14 - DISCONTINUITY_RADIUS, 16 + DISCONTINUITY_RADIUS))
+    assert m["discontinuity"][1:1 + DISCONTINUITY_RADIUS].all()
+    # textureless: the flat half away from the texture (the 7x7 energy box reaches 3 px over)
+    assert m["textureless"][5:, 19:].all() and not m["textureless"][5:, :14].any()
+
+
+def test_textureless_threshold_is_the_documented_energy():
+    ramp = np.tile(np.arange(40, dtype=np.float64), (20, 1))  # gradient 1 grey level / px
+    energy = gradient_energy(ramp)
+    assert np.allclose(energy[5:-5, 5:-5], 1.0)
+    steep = ramp * 2.5  # RMS gradient 2.5 > 2: energy 6.25 above the threshold of 4
+    gt, occ = np.ones((20, 40)), np.full((20, 40), 255, np.uint8)
+    assert region_masks(gt, occ, ramp)["textureless"][5:-5, 5:-5].all()
+    assert not region_masks(gt, occ, steep)["textureless"][5:-5, 5:-5].any()
+    assert TEXTURELESS_ENERGY == 4.0
+
+
+def test_scores_count_missing_estimates_as_bad_and_errors_over_estimated_pixels():
+    gt = np.array([[1.0, 1.0, 1.0, 1.0]])
+    est = np.array([[1.2, 2.5, np.nan, 9.0]])
+    s = region_scores(est, gt, np.ones((1, 4), bool))
+    assert s["coverage"] == 0.75
+    assert s["bad_0_5"] == 0.75 and s["bad_1"] == 0.75 and s["bad_2"] == 0.5 and s["bad_4"] == 0.5
+    assert s["avgerr"] == pytest.approx((0.2 + 1.5 + 8.0) / 3)
+    failed = region_scores(None, gt, np.ones((1, 4), bool))
+    assert failed["bad_0_5"] == 1.0 and failed["coverage"] == 0.0 and failed["avgerr"] is None
+    assert all(v is None for v in region_scores(est, gt, np.zeros((1, 4), bool)).values())

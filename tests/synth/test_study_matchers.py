@@ -1,0 +1,137 @@
+"""study with MATCHER strings and kept pairs, eval-dataset on them, bench match --matcher."""
+
+from __future__ import annotations
+
+import csv
+import os
+
+import pytest
+from click.testing import CliRunner
+
+from synth.cli import main
+from synth.jobs.bench_match import bench_match
+from synth.jobs.study import run_study
+
+HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "user_matchers.py")
+TINY = """\
+name = "tiny"
+seeds = [3]
+max_disparity = 8
+rig = {width = 64, height = 48}
+scene = {kinds = ["slanted_plane"], frequencies_px = [0.05, 0.15], noise_sigma = 1.0}
+match = {methods = ["ct"], windows = [5]}
+"""
+
+
+def _rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.gl
+def test_study_with_matcher_strings_keeps_pairs_and_eval_dataset_agrees(tmp_path, renderer):
+    config = tmp_path / "tiny.toml"
+    config.write_text(TINY)
+    plain = run_study(config, out=tmp_path / "plain", progress=False)
+    out = run_study(config, out=tmp_path / "s", progress=False, keep_pairs=True,
+                    matchers=[f"py:{HERE}:sad3", "ct:5", f"py:{HERE}:broken"])
+    rows = _rows(out / "results.csv")
+    assert [r["method"] for r in rows[:4]] == ["ct", f"py:{HERE}:sad3", "ct:5",
+                                               f"py:{HERE}:broken"]
+    # the built-in rows are those of the plain study, byte for byte
+    plain_lines = (plain / "results.csv").read_text().splitlines()
+    lines = (out / "results.csv").read_text().splitlines()
+    assert [lines[0], lines[1], lines[5]] == plain_lines
+    by = {(r["texture_level"], r["method"]): r for r in rows}
+    assert by["0.05", "ct:5"]["pobmp"] == by["0.05", "ct"]["pobmp"]  # the same matcher
+    assert by["0.05", f"py:{HERE}:broken"]["pobmp"] == "100.0"
+    assert by["0.05", "ct:5"]["window"] == ""
+    assert sorted(p.name for p in (out / "pairs").iterdir()) == ["000000", "000001"]
+    # a kept study scores another matcher on exactly its pairs
+    runner = CliRunner()
+    result = runner.invoke(main, ["eval-dataset", str(out), "--matcher", "ct:5",
+                                  "--out", str(tmp_path / "e")])
+    assert result.exit_code == 0, result.output
+    scored = {(r["index"], r["region"]): r for r in _rows(tmp_path / "e" / "results.csv")}
+    assert scored["0", "nonocc"]["max_disparity"] == "8"
+    assert float(scored["0", "nonocc"]["bad_2"]) >= float(scored["0", "nonocc"]["bad_4"])
+    # the kept pair is the one the study's matchers saw: its PoBMP comes back exactly
+    from matcher.io import read_image, read_pfm
+    from matcher.metrics import evaluate
+
+    est = read_pfm(tmp_path / "e" / "000000.pfm")
+    gt = read_pfm(out / "pairs" / "000000" / "disp0GT.pfm")
+    occ = read_image(out / "pairs" / "000000" / "mask0nocc.png")
+    m = evaluate(est, gt, delta=3.0, region="nonocc", occlusion_mask=occ)
+    assert repr(m.pobmp) == by["0.05", "ct"]["pobmp"]
+
+
+@pytest.mark.gl
+def test_eval_dataset_on_a_dataset_folder(tmp_path, renderer):
+    from synth.dataset import run_dataset
+
+    cfg = tmp_path / "d.toml"
+    cfg.write_text("count = 2\n[rig]\nwidth = 64\nheight = 48\n")
+    run_dataset(cfg, out=tmp_path / "ds", progress=False)
+    result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path / "ds"), "--matcher",
+                                       f"py:{HERE}:broken"])
+    assert result.exit_code == 0, result.output
+    rows = _rows(next((tmp_path / "ds" / "eval").iterdir()) / "results.csv")
+    assert len(rows) == 2 * 3 and all(r["error"] == "crashed: ZeroDivisionError: user bug" for r in rows)
+    assert all(r["bad_0_5"] == "1.0" and r["coverage"] == "0.0" for r in rows if r["pixels"] != "0")
+
+
+def test_eval_dataset_refuses_a_folder_without_samples(tmp_path):
+    result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path), "--matcher", "ct"])
+    assert result.exit_code == 2
+    assert "no samples (NNNNNN/sample.json)" in result.output
+
+
+def test_study_refuses_a_matcher_that_does_not_resolve(tmp_path):
+    config = tmp_path / "tiny.toml"
+    config.write_text(TINY)
+    result = CliRunner().invoke(main, ["study", str(config), "--out", str(tmp_path / "o"),
+                                       "--matcher", "sad"])
+    assert result.exit_code == 2 and "tried a built-in method 'sad'" in result.output
+
+
+def test_bench_match_times_any_matcher_beside_opencv():
+    rows = bench_match(sizes=((64, 48, 16),), repeats=1, matchers=[f"py:{HERE}:sad3", "ct:5"])
+    labels = [r.label for r in rows]
+    assert labels[-2:] == [f"py:{HERE}:sad3", "ct:5"] and "StereoSGBM 5" in labels
+    by = {r.label: r for r in rows}
+    assert by["ct:5"].accuracy == by["CT 5x5"].accuracy
+    assert by[f"py:{HERE}:sad3"].accuracy > 0.9 and by[f"py:{HERE}:sad3"].seconds > 0
+
+
+SWEEP = TINY.replace('frequencies_px = [0.05, 0.15]',
+                     'sweep_key = "photometric.gain", sweep_values = [0.7, 1.3]')
+
+
+@pytest.mark.gl
+def test_study_sweeps_any_dataset_config_key(tmp_path, renderer):
+    config = tmp_path / "sweep.toml"
+    config.write_text(SWEEP)
+    out = run_study(config, out=tmp_path / "s", progress=False)
+    rows = _rows(out / "results.csv")
+    assert [(r["texture_axis"], r["texture_level"]) for r in rows] == [
+        ("photometric.gain", "0.7"), ("photometric.gain", "1.3")]
+    assert "gain=0.7" in (out / "summary.md").read_text()
+    assert sorted(p.name for p in (out / "cells" / "slanted_plane").iterdir()) == [
+        "photometric.gain=0.7_c0.8_s3.json", "photometric.gain=1.3_c0.8_s3.json"]
+    again = run_study(config, out=tmp_path / "t", progress=False)
+    assert (again / "results.csv").read_bytes() == (out / "results.csv").read_bytes()
+
+
+@pytest.mark.parametrize("scene, message", [
+    ('sweep_key = "photometric.gian", sweep_values = [1.0]', "a dataset-config key"),
+    ('sweep_key = "scene.occluders", sweep_values = [1.5]', "values of scene.occluders"),
+    ('sweep_values = [1.0]', "sweep_key and sweep_values together"),
+    ('sweep_key = "rig.baseline", sweep_values = [0.1], frequencies_px = [0.1]', "more than one"),
+])
+def test_a_bad_sweep_names_the_line(scene, message):
+    from synth.jobs.study import StudyConfigError, loads_study_config
+
+    text = TINY.replace('frequencies_px = [0.05, 0.15]', scene)
+    with pytest.raises(StudyConfigError, match=message):
+        loads_study_config(text, source="s.toml")
