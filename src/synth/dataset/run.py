@@ -218,6 +218,22 @@ def _write_record(tmp: Path, index: int, fmt: str) -> None:
                        fsync=False)
 
 
+def _returned_files(tmp: Path, index: int, fmt: str) -> dict[str, bytes]:
+    """A rendered sample's files as a worker returns them: its completion record written, then
+    every file read back (path in the dataset -> bytes)."""
+    _write_record(tmp, index, fmt)
+    return {name: path.read_bytes() for name, path in _dataset_files(tmp, index, fmt)}
+
+
+def commit_returned(tmp: Path, out: Path | FsPath, index: int, fmt: str) -> None:
+    """What a sample costs the driver on the Ray engine or a URL output: the files of ``tmp``
+    (a folder :func:`produce_sample` wrote) returned as bytes and committed into ``out``
+    (``stereoforge bench dataset`` times it)."""
+    files = _returned_files(tmp, index, fmt)
+    commit_sample(out, index, files, record=f"{index:06d}/{RECORD}",
+                  commit_local=lambda t, root: _commit(t, root, index, fmt))
+
+
 class SampleTask:
     """Picklable per-sample job (see :mod:`synth.dataset.engine`).
 
@@ -253,12 +269,11 @@ class SampleTask:
         try:
             shutil.rmtree(tmp, ignore_errors=True)
             record = produce_sample(self.config, index, renderer, tmp, self.fmt)
-            _write_record(tmp, index, self.fmt)
             if self.out is None:
-                files = {name: path.read_bytes() for name, path in
-                         _dataset_files(tmp, index, self.fmt)}
+                files = _returned_files(tmp, index, self.fmt)
                 shutil.rmtree(tmp, ignore_errors=True)
                 return record, files
+            _write_record(tmp, index, self.fmt)
             _commit(tmp, self.out, index, self.fmt)
             return record
         except BaseException as exc:
@@ -425,8 +440,7 @@ def run_dataset(
                                            address=address):
                 if returns_bytes:
                     commit_sample(out, index, result[1], record=f"{index:06d}/{RECORD}",
-                                  commit_local=lambda tmp, root, i=index: _commit(tmp, root, i,
-                                                                                  fmt))
+                                  commit_local=lambda t, root, i=index: _commit(t, root, i, fmt))
                 bar.update()
         finally:
             bar.close()
