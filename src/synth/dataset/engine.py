@@ -363,7 +363,17 @@ def _run_ray(task: Task, indices: Sequence[int], workers: int,
             kwargs.update(num_cpus=workers, _node_ip_address="127.0.0.1")
         else:
             check_ray_address(address, timeout=timeout)
-        ray.init(address=address or "local", **kwargs)
+        try:
+            ray.init(address=address or "local", **kwargs)
+        except ConnectionError as exc:  # the port answered, Ray's handshake did not
+            from stereoforge.errors import BackendError
+
+            raise BackendError(
+                f"engine='ray': {exc}. If the head was started with token authentication (Ray "
+                "enables it when ~/.ray/auth_token exists), set RAY_AUTH_MODE=token (and the "
+                "token: ~/.ray/auth_token or RAY_AUTH_TOKEN) for this command; else check that "
+                "--address is the head's GCS port and that both run the same Ray version"
+            ) from None
     try:
         actor_cls = ray.remote(num_cpus=1, max_restarts=0)(_RayWorker)
         yield from ray_results(ray, actor_cls, task, indices, workers)
