@@ -98,7 +98,8 @@ def test_workers_do_not_write_memory_urls_get_the_local_bytes(cluster, config_fi
 
     cfg = load_config(config_file)
     url = "memory://ray-cluster-test"
-    run = run_dataset(cfg, url, workers=2, engine="ray", address=cluster.address,
+    # one actor here, two in the CLI test: Ray with 1 and 2 workers, both against local 1 and 2
+    run = run_dataset(cfg, url, workers=1, engine="ray", address=cluster.address,
                       progress=False)
     assert run.rendered == _COUNT
     fs = fsspec.filesystem("memory")

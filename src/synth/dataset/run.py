@@ -92,7 +92,8 @@ class DatasetRun:
 
     Attributes
     ----------
-    out : Path
+    out : Path or synth.dataset.storage.FsPath
+        The dataset's folder, or its location on an fsspec filesystem.
     count : int
         Samples the dataset holds (``0 .. count - 1``).
     rendered, skipped : int
@@ -101,7 +102,7 @@ class DatasetRun:
         Wall time of the run.
     """
 
-    out: Path
+    out: Path | FsPath
     count: int
     rendered: int
     skipped: int
