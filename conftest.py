@@ -11,6 +11,10 @@ import os
 import pytest
 from _pytest.doctest import DoctestItem
 
+# Every Ray a test starts or joins stays on the loopback, whichever test imports Ray first: Ray
+# keeps a node IP of 127.0.0.1 only with this set as it is imported (synth.dataset.engine).
+os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+
 def require_or_skip(reason: str, *, env: str) -> None:
     """Skip with ``reason``, or fail when the environment variable ``env`` demands the resource.
 

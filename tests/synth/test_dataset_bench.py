@@ -78,7 +78,8 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     for suffix in ("", "_cpu"):
         assert prof[f"total{suffix}_ms"] == pytest.approx(
             sum(prof[f"{s}{suffix}_ms"] for s in stages))
-    assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] > 0
+    assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] > 0 and prof["commit_ms"] > 0
+    assert profile_dataset(str(path), count=1, size=(48, 30))["size"] == "48x30"
 
 
 @pytest.mark.gl

@@ -104,6 +104,12 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend) -> 
     rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
                          backend=backend, progress=True, size=sizes[0])
     click.echo(write_table(rows, Path(out), "dataset"))
+    from synth.jobs.bench_dataset import profile_dataset
+
+    # where one worker's time goes, per stage (docs/scale.md builds its estimates on it)
+    stages = [profile_dataset(name, count=count, backend=backend, size=sizes[0])
+              for name in dict.fromkeys(names)]
+    click.echo(write_table(stages, Path(out), "dataset-stages"))
 
 
 @bench.command("realism")

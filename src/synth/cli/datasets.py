@@ -11,7 +11,9 @@ __all__ = ["dataset"]
 
 @click.command()
 @click.argument("config", required=False)
-@out_dir_option(required=False)
+@out_dir_option(required=False, url=True,
+                help="Dataset directory, or an fsspec URL (s3://bucket/prefix with s3fs, "
+                     "gs://... with gcsfs; needs pip install 'stereoforge[storage]').")
 @click.option("--count", default=None, type=click.IntRange(min=1),
               help="Number of pairs [default: the config's count].")
 @workers_option
@@ -20,9 +22,8 @@ __all__ = ["dataset"]
 @format_option
 @backend_option
 @click.option("--verify", "verify_dir", default=None, metavar="DIR",
-              type=click.Path(exists=True, file_okay=False),
-              help="Check the dataset in DIR instead (sizes and SHA-256 of every file against "
-                   "the samples' records; holes up to --count; extra files; the manifest): one "
+              help="Check the dataset in DIR (a folder or an fsspec URL) instead (sizes and "
+                   "SHA-256 of every file against the samples' records; holes up to --count; extra files; the manifest): one "
                    "line per problem, exit 1 if any.")
 def dataset(config, out, count, workers, engine, address, fmt, backend, verify_dir) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), or check

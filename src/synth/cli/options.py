@@ -91,13 +91,13 @@ def overwrite_option(f: Callable[..., Any]) -> Callable[..., Any]:
 
 
 def out_dir_option(*, default: str | None = None, help: str | None = None,
-                   required: bool | None = None) -> _Decorator:
+                   required: bool | None = None, url: bool = False) -> _Decorator:
     """``--out DIRECTORY``: required unless a default is given (or ``required=False``: the
-    command checks it)."""
+    command checks it). ``url``: also an fsspec URL (``s3://...``), passed on as a string."""
     required = default is None if required is None else required
     return click.option("--out", "out", required=required, default=default,
                         show_default=default is not None, help=help,
-                        type=click.Path(file_okay=False, path_type=Path))
+                        type=str if url else click.Path(file_okay=False, path_type=Path))
 
 
 def size_options(*, width: int, height: int, minimum: int = 1) -> _Decorator:

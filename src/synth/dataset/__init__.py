@@ -3,6 +3,8 @@
 - :mod:`synth.dataset.config` — the TOML/JSON dataset configuration and its schema.
 - :mod:`synth.dataset.sampling` — what sample ``i`` draws from the configuration (seeded by ``i``).
 - :mod:`synth.dataset.engine` — local process pool (fork server) and Ray engines.
+- :mod:`synth.dataset.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
+- :mod:`synth.dataset.storage` — folders and fsspec URLs; the commit of returned samples.
 - :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
 - :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,

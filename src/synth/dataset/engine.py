@@ -24,6 +24,11 @@ order sort). Engines:
   pair.
 - ``"ray"``: ``workers`` Ray actors (one renderer each), on the cluster at ``address`` or on a
   local Ray started with ``num_cpus=workers`` (and shut down after). Needs ``pip install ray``.
+  Each actor runs one task at a time; an actor that dies (its node lost) is replaced and its
+  sample goes back to the queue, so no sample is lost (at most ``4 * workers`` losses per run).
+  On the loopback (a local Ray, or an ``address`` on ``127.*``/``localhost``) the driver's node
+  IP must stay 127.0.0.1 (see :func:`synth.dataset.ray_driver.import_ray`). The driver side of
+  Ray (its import, the actor scheduling and retries) is :mod:`synth.dataset.ray_driver`.
 
 The first failing task stops the run: pending tasks are cancelled and its exception is raised.
 
@@ -297,6 +302,9 @@ class _RayWorker:
         self.task = task
         self.renderer = Renderer(task.width, task.height, backend=task.backend)
 
+    def ready(self) -> None:
+        """Returns once ``__init__`` ran (the renderer is open)."""
+
     def run(self, index: int) -> tuple[int, dict]:
         return index, self.task(index, self.renderer)
 
@@ -343,12 +351,9 @@ def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -
 def _run_ray(task: Task, indices: Sequence[int], workers: int,
              address: str | None, timeout: float = RAY_CONNECT_TIMEOUT_S
              ) -> Iterator[tuple[int, dict]]:
-    try:
-        import ray
-        from ray.util import ActorPool
-    except ImportError as exc:
-        raise RuntimeError("engine='ray' needs Ray: pip install ray (or use engine='local')"
-                           ) from exc
+    from synth.dataset.ray_driver import import_ray, ray_results
+
+    ray = import_ray(address)
     started = not ray.is_initialized()
     if started:
         kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
@@ -358,26 +363,21 @@ def _run_ray(task: Task, indices: Sequence[int], workers: int,
             kwargs.update(num_cpus=workers, _node_ip_address="127.0.0.1")
         else:
             check_ray_address(address, timeout=timeout)
-        ray.init(address=address or "local", **kwargs)
-    actors: list[Any] = []
+        try:
+            ray.init(address=address or "local", **kwargs)
+        except ConnectionError as exc:  # the port answered, Ray's handshake did not
+            from stereoforge.errors import BackendError
+
+            raise BackendError(
+                f"engine='ray': {exc}. If the head was started with token authentication (Ray "
+                "enables it when ~/.ray/auth_token exists), set RAY_AUTH_MODE=token (and the "
+                "token: ~/.ray/auth_token or RAY_AUTH_TOKEN) for this command; else check that "
+                "--address is the head's GCS port and that both run the same Ray version"
+            ) from None
     try:
-        actor_cls = ray.remote(num_cpus=1)(_RayWorker)
-        actors = [actor_cls.remote(task) for _ in range(workers)]
-        pool = ActorPool(actors)
-        results = pool.map_unordered(lambda actor, i: actor.run.remote(i), list(indices))
-        while True:
-            try:
-                yield next(results)
-            except StopIteration:
-                break
-            except ray.exceptions.RayTaskError as exc:
-                cause = getattr(exc, "cause", None)
-                if isinstance(cause, Exception):
-                    raise cause from None
-                raise
+        actor_cls = ray.remote(num_cpus=1, max_restarts=0)(_RayWorker)
+        yield from ray_results(ray, actor_cls, task, indices, workers)
     finally:
-        for actor in actors:
-            ray.kill(actor)
         if started:
             ray.shutdown()
 

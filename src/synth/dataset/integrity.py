@@ -22,6 +22,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from synth.dataset.manifest import SAMPLE_DIR, manifest_bytes, read_manifest
+from synth.dataset.storage import FsPath, dataset_path
 from synth.formats import KITTI_ROOT
 
 __all__ = ["RECORD", "completion_record", "sample_problems", "verify_dataset"]
@@ -32,8 +33,8 @@ _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _TOP_FILES = ("dataset.json", "manifest.jsonl", "manifest.csv", ".lock")
 
 
-def _sha256(path: Path) -> str:
-    with open(path, "rb") as f:
+def _sha256(path: Path | FsPath) -> str:
+    with path.open("rb") as f:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
 
@@ -109,7 +110,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
     >>> verify_dataset(tempfile.mkdtemp())[0]
     '...: no dataset.json; not a dataset directory (made by run_dataset)'
     """
-    root = Path(dataset_dir)
+    root = dataset_path(dataset_dir)  # a folder or an fsspec URL (synth.dataset.storage)
     if not (root / "dataset.json").is_file():
         return [f"{root}: no dataset.json; not a dataset directory (made by run_dataset)"]
     present = sorted(int(d.name) for d in root.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name))

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from synth._json import read_json_object
+from synth.dataset.storage import dataset_path
 
 __all__ = ["MODIFIED_FIX", "SAMPLE_DIR", "read_manifest", "manifest_bytes"]
 
@@ -34,7 +35,7 @@ def read_manifest(dataset_dir: str | Path) -> list[dict]:
     >>> read_manifest(tempfile.mkdtemp())
     []
     """
-    root = Path(dataset_dir)
+    root = dataset_path(dataset_dir)  # a folder or an fsspec URL
     records = []
     for d in root.iterdir():
         if d.is_dir() and SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():

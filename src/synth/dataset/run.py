@@ -39,6 +39,7 @@ import json
 import os
 import re
 import shutil
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,6 +54,7 @@ from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
 from synth.dataset.integrity import RECORD, completion_record, sample_problems
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
+from synth.dataset.storage import FsPath, commit_sample, dataset_path, is_local, remove_tree, write_bytes
 from synth.export import FORMATS, prepare_output_dir, write_pair
 from synth.formats import KITTI_ROOT
 from synth.photometric import apply_photometric
@@ -90,7 +92,8 @@ class DatasetRun:
 
     Attributes
     ----------
-    out : Path
+    out : Path or synth.dataset.storage.FsPath
+        The dataset's folder, or its location on an fsspec filesystem.
     count : int
         Samples the dataset holds (``0 .. count - 1``).
     rendered, skipped : int
@@ -99,7 +102,7 @@ class DatasetRun:
         Wall time of the run.
     """
 
-    out: Path
+    out: Path | FsPath
     count: int
     rendered: int
     skipped: int
@@ -199,26 +202,56 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
     # rename durable would buy nothing after a power loss, and it costs ~3 ms per sample.
 
 
-def _write_record(tmp: Path, index: int, fmt: str) -> None:
-    """The sample's completion record, last, listing its files by their final paths."""
+def _dataset_files(tmp: Path, index: int, fmt: str) -> list[tuple[str, Path]]:
+    """The files of a sample's temporary folder, as (path in the dataset, file) pairs."""
     name = f"{index:06d}"
     files = []
     for path in sorted(p for p in tmp.rglob("*") if p.is_file()):
         rel = path.relative_to(tmp)
         in_dataset = str(rel) if fmt == "kitti" and rel.parts[0] == KITTI_ROOT else f"{name}/{rel}"
         files.append((in_dataset, path))
-    atomic_write_bytes(tmp / RECORD, completion_record(index, files), fsync=False)
+    return files
+
+
+def _write_record(tmp: Path, index: int, fmt: str) -> None:
+    """The sample's completion record, last, listing its files by their final paths."""
+    atomic_write_bytes(tmp / RECORD, completion_record(index, _dataset_files(tmp, index, fmt)),
+                       fsync=False)
+
+
+def _returned_files(tmp: Path, index: int, fmt: str) -> dict[str, bytes]:
+    """A rendered sample's files as a worker returns them: its completion record written, then
+    every file read back (path in the dataset -> bytes)."""
+    _write_record(tmp, index, fmt)
+    return {name: path.read_bytes() for name, path in _dataset_files(tmp, index, fmt)}
+
+
+def commit_returned(tmp: Path, out: Path | FsPath, index: int, fmt: str) -> None:
+    """What a sample costs the driver on the Ray engine or a URL output: the files of ``tmp``
+    (a folder :func:`produce_sample` wrote) returned as bytes and committed into ``out``
+    (``stereoforge bench dataset`` times it)."""
+    files = _returned_files(tmp, index, fmt)
+    commit_sample(out, index, files, record=f"{index:06d}/{RECORD}",
+                  commit_local=lambda t, root: _commit(t, root, index, fmt))
 
 
 class SampleTask:
-    """Picklable per-sample job (see :mod:`synth.dataset.engine`)."""
+    """Picklable per-sample job (see :mod:`synth.dataset.engine`).
+
+    With ``out`` a local folder the worker writes and commits the sample itself and returns its
+    record. With ``out=None`` it writes nothing where the driver writes: it renders into a
+    temporary folder of its own machine and returns ``(record, files)``, ``files`` mapping each
+    path in the dataset (the completion record included) to its bytes, for the driver to
+    :func:`~synth.dataset.storage.commit_sample` (Ray workers, URL outputs: no shared
+    filesystem assumed).
+    """
 
     preload = ("synth.pair",)  # imported once by the engine's fork server for every worker
 
-    def __init__(self, config: DatasetConfig, out: Path, fmt: str, backend: str) -> None:
+    def __init__(self, config: DatasetConfig, out: Path | None, fmt: str, backend: str) -> None:
         self.config_dict = config.to_dict()
         self.source = config.source
-        self.out, self.fmt, self.backend = Path(out), fmt, backend
+        self.out, self.fmt, self.backend = None if out is None else Path(out), fmt, backend
         self.width, self.height = config.rig.width, config.rig.height
         self._config: DatasetConfig | None = config
 
@@ -231,11 +264,16 @@ class SampleTask:
             self._config = config_from_dict(self.config_dict, source=self.source)
         return self._config
 
-    def __call__(self, index: int, renderer: Any) -> dict:
-        tmp = self.out / f".{index:06d}.tmp-{os.getpid()}"
+    def __call__(self, index: int, renderer: Any) -> dict | tuple[dict, dict[str, bytes]]:
+        tmp = (Path(tempfile.mkdtemp(prefix=f"stereoforge-{index:06d}-")) if self.out is None
+               else self.out / f".{index:06d}.tmp-{os.getpid()}")
         try:
             shutil.rmtree(tmp, ignore_errors=True)
             record = produce_sample(self.config, index, renderer, tmp, self.fmt)
+            if self.out is None:
+                files = _returned_files(tmp, index, self.fmt)
+                shutil.rmtree(tmp, ignore_errors=True)
+                return record, files
             _write_record(tmp, index, self.fmt)
             _commit(tmp, self.out, index, self.fmt)
             return record
@@ -251,8 +289,8 @@ class SampleTask:
 def _write_manifest(out: Path) -> list[dict]:
     records = read_manifest(out)
     jsonl, table = manifest_bytes(records)
-    atomic_write_bytes(out / "manifest.jsonl", jsonl, fsync=False)
-    atomic_write_bytes(out / "manifest.csv", table, fsync=False)
+    write_bytes(out / "manifest.jsonl", jsonl)
+    write_bytes(out / "manifest.csv", table)
     return records
 
 
@@ -289,10 +327,12 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
         raise DatasetError(f"{out} is not empty ({', '.join(others[:5])}"
                            f"{', ...' if len(others) > 5 else ''}) and holds no dataset.json; "
                            "choose an empty or new directory")
-    atomic_write_bytes(path, _json_bytes(header))
+    write_bytes(path, _json_bytes(header))
 
 
-def _lock(out: Path) -> int:
+def _lock(out: Path | FsPath) -> int | None:
+    if not is_local(out):
+        return None  # object stores have no lock: one run per output URL at a time
     fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -306,8 +346,8 @@ def _lock(out: Path) -> int:
 # --------------------------------------------------------------------------- public API
 def run_dataset(
     config: str | Path | DatasetConfig,
-    *,
     out: str | Path,
+    *,
     count: int | None = None,
     workers: int = 1,
     engine: str = "local",
@@ -325,7 +365,9 @@ def run_dataset(
         or a parsed configuration.
     out : str or Path
         Dataset directory: new, empty, or holding a (partial) dataset of the same config and
-        format, which is completed.
+        format, which is completed. A local path, a ``file://`` URL or any fsspec URL
+        (``memory://``, ``s3://bucket/prefix`` with s3fs, ``gs://`` with gcsfs: needs
+        ``pip install 'stereoforge[storage]'``; see :mod:`synth.dataset.storage`).
     count : int, optional
         Samples ``0 .. count - 1`` (default: the config's ``count``).
     workers : int
@@ -361,6 +403,7 @@ def run_dataset(
     >>> run.rendered, sorted(p.name for p in run.out.iterdir())[:3]
     (2, ['.lock', '000000', '000001'])
     """
+    out = dataset_path(out)  # a URL whose filesystem is not installed fails here, before any work
     cfg = load_config(config)
     count = cfg.count if count is None else count
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 999_999:
@@ -378,7 +421,6 @@ def run_dataset(
     if engine == "ray" and address is not None:
         check_ray_address(address)  # an unreachable cluster fails before the folder is made
     t0 = time.perf_counter()
-    out = Path(out)
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out} exists and is not a directory; choose another output")
     out.mkdir(parents=True, exist_ok=True)
@@ -387,23 +429,30 @@ def run_dataset(
         _open_dataset(out, cfg, fmt)
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
-                shutil.rmtree(stale, ignore_errors=True)
+                remove_tree(stale)
         # a sample is done when its completion record exists and its files have the recorded
         # sizes (checksums: verify_dataset, `stereoforge dataset --verify`); else render again
         todo = [i for i in range(count) if sample_problems(out, i)]
         for i in todo:
-            shutil.rmtree(out / f"{i:06d}", ignore_errors=True)
-        task = SampleTask(cfg, out, fmt, backend)
+            remove_tree(out / f"{i:06d}")
+        # Ray workers and URL outputs: the workers return the bytes, this process writes them
+        returns_bytes = engine == "ray" or not is_local(out)
+        task = SampleTask(cfg, None if returns_bytes else out, fmt, backend)
         bar = progress_bar(total=len(todo), desc=f"dataset {cfg.name}", unit="pair",
                            enabled=progress)
         try:
-            for _ in run_tasks(task, todo, workers=workers, engine=engine, address=address):
+            for index, result in run_tasks(task, todo, workers=workers, engine=engine,
+                                           address=address):
+                if returns_bytes:
+                    commit_sample(out, index, result[1], record=f"{index:06d}/{RECORD}",
+                                  commit_local=lambda t, root, i=index: _commit(t, root, i, fmt))
                 bar.update()
         finally:
             bar.close()
             _write_manifest(out)
     finally:
-        os.close(lock)
+        if lock is not None:
+            os.close(lock)
     return DatasetRun(out=out, count=count, rendered=len(todo), skipped=count - len(todo),
                       seconds=time.perf_counter() - t0)
 

@@ -175,13 +175,18 @@ def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
     return config_from_dict(data, source=f"{config.source} at {width}x{height}")
 
 
-def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto") -> dict:
+def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto",
+                    size: tuple[int, int] | None = None) -> dict:
     """Milliseconds per pair in each stage of one worker (after one warm-up sample).
 
     Stages: ``draw`` (parameters and scene), ``search`` (edge density loop), ``render``
     (``render_pair``: texture synthesis, upload, colour and depth passes, masks), ``texture``
     (texture synthesis alone, included in ``render``), ``photometric``, ``stats`` (Canny and
-    GT statistics), ``write`` (PNG/PFM encoding, scene.json, sample.json).
+    GT statistics), ``write`` (PNG/PFM encoding, scene.json, sample.json, into the worker's
+    temporary folder: mostly encoding). Not in ``total``: ``commit``, what the driver spends
+    per pair on the Ray engine or a URL output (the completion record, reading the files back
+    as the worker returns them, and :func:`~synth.dataset.storage.commit_sample` into a local
+    folder; an object store adds its upload time). ``size``: render at ``(W, H)`` instead.
 
     Returns
     -------
@@ -193,18 +198,24 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     """
     from scenes import build_meshes
     from synth.dataset.config import load_config
-    from synth.dataset.run import produce_sample
+    from synth.dataset.run import commit_returned, produce_sample
     from synth.render.renderer import Renderer
     from synth.dataset.sampling import draw_sample
 
     cfg = load_config(config)
+    if size is not None:
+        cfg = resized(cfg, *size)
     timings: dict[str, float] = {}
-    texture = texture_cpu = 0.0
+    texture = texture_cpu = commit = 0.0
     with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
         produce_sample(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
+        (Path(tmp) / "out").mkdir()
         for i in range(count):
             produce_sample(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury", timings=timings)
+            t0 = time.perf_counter()
+            commit_returned(Path(tmp) / f"{i:06d}", Path(tmp) / "out", i, "middlebury")
+            commit += time.perf_counter() - t0
             scene = draw_sample(cfg, i).scene
             t0, c0 = time.perf_counter(), time.process_time()
             build_meshes(scene)
@@ -218,6 +229,7 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
             row[f"{stage}{suffix}_ms"] = 1e3 * timings.get(stage + suffix, 0.0) / count
         row[f"texture{suffix}_ms"] = 1e3 * extra / count
         row[f"total{suffix}_ms"] = sum(row[f"{stage}{suffix}_ms"] for stage in stages)
+    row["commit_ms"] = 1e3 * commit / count
     return row
 
 

@@ -1,0 +1,158 @@
+"""The Ray engine on a real two-node cluster (``ray.cluster_utils.Cluster``), all on 127.0.0.1.
+
+One cluster for the module (a start costs seconds): a head and one worker node, one CPU each,
+so two actors land on two nodes. The driver joins on the loopback; the workers return the bytes
+and only the driver writes (``memory://`` is visible to the driver process alone).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from synth.dataset.engine import ray_available
+
+pytestmark = [pytest.mark.ray, pytest.mark.gl, pytest.mark.slow]
+
+_CONFIG = ("seed = 2\ncount = {count}\n[rig]\nwidth = 32\nheight = 24\n[scene]\n"
+           'base = {{choice = ["fronto_plane", "flying"]}}\noccluders = 1\n'
+           "[photometric]\nnoise_sigma = 2.0\n")
+_COUNT = 6
+
+
+def _files(root: Path) -> dict[str, str]:
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file() and p.name != ".lock"}
+
+
+@pytest.fixture(scope="module")
+def cluster(require_or_skip):
+    if not ray_available():
+        require_or_skip("ray is not installed (optional extra: pip install ray)",
+                        env="STEREOFORGE_REQUIRE_RAY")
+    from ray.cluster_utils import Cluster
+
+    args = {"node_ip_address": "127.0.0.1", "num_cpus": 1, "include_dashboard": False}
+    c = Cluster(initialize_head=True, head_node_args=args)
+    try:
+        c.add_node(**args)
+        c.wait_for_nodes()
+        yield c
+    finally:
+        c.shutdown()
+
+
+@pytest.fixture(scope="module")
+def config_file(tmp_path_factory) -> Path:
+    """The configuration, as a file (dataset.json names its source)."""
+    path = tmp_path_factory.mktemp("config") / "c.toml"
+    path.write_text(_CONFIG.format(count=_COUNT))
+    return path
+
+
+@pytest.fixture(scope="module")
+def local_runs(tmp_path_factory, renderer, config_file):
+    """Local runs with 1 and 2 workers: the reference bytes."""
+    from synth.dataset.config import load_config
+    from synth.dataset.run import run_dataset
+
+    root = tmp_path_factory.mktemp("local")
+    cfg = load_config(config_file)
+    runs = {}
+    for workers in (1, 2):
+        run_dataset(cfg, root / f"w{workers}", workers=workers, progress=False)
+        runs[workers] = _files(root / f"w{workers}")
+    assert runs[1] == runs[2]
+    return runs[1]
+
+
+def test_the_cli_joins_a_loopback_cluster_and_writes_the_local_bytes(tmp_path, cluster,
+                                                                     config_file, local_runs):
+    """`stereoforge dataset --engine ray --address 127.0.0.1:PORT`, in a fresh process without
+    RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER in its environment: the engine sets it before importing
+    Ray (without it the driver rewrote 127.0.0.1 to the interface address and waited for ever)."""
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"}
+    out = subprocess.run(
+        [str(Path(sys.executable).with_name("stereoforge")), "dataset", str(config_file),
+         "--engine", "ray", "--workers", "2", "--address", cluster.address, "--out", str(tmp_path / "o")],
+        capture_output=True, text=True, timeout=240, env=env)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert f"{_COUNT} rendered" in out.stdout
+    assert _files(tmp_path / "o") == local_runs
+
+
+def test_workers_do_not_write_memory_urls_get_the_local_bytes(cluster, config_file,
+                                                             local_runs):
+    import fsspec
+
+    from synth.dataset.config import load_config
+    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.run import run_dataset
+
+    cfg = load_config(config_file)
+    url = "memory://ray-cluster-test"
+    # one actor here, two in the CLI test: Ray with 1 and 2 workers, both against local 1 and 2
+    run = run_dataset(cfg, url, workers=1, engine="ray", address=cluster.address,
+                      progress=False)
+    assert run.rendered == _COUNT
+    fs = fsspec.filesystem("memory")
+    got = {f.removeprefix("/ray-cluster-test/"): hashlib.sha256(fs.cat_file(f)).hexdigest()
+           for f in fs.find("/ray-cluster-test")}
+    assert got == local_runs  # no .lock on an object store; every other file, same bytes
+    assert verify_dataset(url) == []
+    fs.rm("/ray-cluster-test", recursive=True)
+
+
+def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
+        tmp_path, cluster, local_runs, caplog):
+    """The worker node is removed (its raylet and actor killed) once the run has committed a
+    sample: its sample in flight is run again on the head's actor."""
+    import ray
+
+    from synth.dataset.config import loads_config
+    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.run import run_dataset
+
+    count = 30
+    cfg = loads_config(_CONFIG.format(count=count))
+    out = tmp_path / "o"
+    ray.init(address=cluster.address, include_dashboard=False, log_to_driver=False)
+    errors: list[BaseException] = []
+
+    def drive() -> None:
+        try:
+            run_dataset(cfg, out, workers=2, engine="ray", progress=False)
+        except BaseException as exc:  # noqa: BLE001 - reported by the test below
+            errors.append(exc)
+
+    thread = threading.Thread(target=drive)
+    try:
+        thread.start()
+        deadline = time.monotonic() + 180
+        done = []
+        while len(done) < 2 and time.monotonic() < deadline and thread.is_alive():
+            done = [p for p in out.glob("[0-9]" * 6) if (p / "files.json").is_file()]
+            time.sleep(0.01)
+        worker_node = cluster.list_all_nodes()[1]
+        cluster.remove_node(worker_node, allow_graceful=False)
+        removed_at = len(done)
+        thread.join(timeout=240)
+    finally:
+        ray.shutdown()
+    assert not thread.is_alive() and not errors, errors
+    assert 2 <= removed_at < count, "the node was not removed mid-run"
+    lost = [r.getMessage() for r in caplog.records if "Ray worker was lost" in r.getMessage()]
+    assert any("runs again" in m for m in lost), lost  # its sample in flight was retried
+    assert verify_dataset(out) == []  # every sample, every file whole, no stray .tmp folder
+    reference = _files(out)
+    assert len({k.split("/")[0] for k in reference if k[0].isdigit()}) == count
+    # the first samples' bytes equal the local run's (same seed, same bytes, whatever the node)
+    assert {k: v for k, v in reference.items() if k[:6] < f"{_COUNT:06d}"} == {
+        k: v for k, v in local_runs.items() if k[:6] < f"{_COUNT:06d}"}
