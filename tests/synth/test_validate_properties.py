@@ -127,3 +127,29 @@ def test_a_rerun_that_passes_removes_the_old_counterexample(tmp_path: Path) -> N
 def test_unknown_suite_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ParameterError, match="suite: expected one of"):
         run_battery(ct9, tmp_path, suite="huge")
+
+
+# --------------------------------------------------------------------------- docs/validate.md
+_EXAMPLES = Path(__file__).resolve().parents[2] / "docs" / "examples"
+
+
+def _example(file: str, function: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"docs_example_{Path(file).stem}", _EXAMPLES / file)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return getattr(module, function)
+
+
+def test_the_tutorials_sad_matcher_runs_and_passes_what_the_tutorial_says(tmp_path: Path) -> None:
+    source = (_EXAMPLES / "sad_matcher.py").read_text()
+    assert len([ln for ln in source.splitlines() if ln.strip()]) <= 20
+    failed = _failed(run_battery(_example("sad_matcher.py", "sad"), tmp_path, name="sad"))
+    assert failed == {"gain_bias_robustness", "monotone_grey_map_robustness"}
+
+
+def test_the_tutorials_stereobm_fails_invalid_marking_until_fixed(tmp_path: Path) -> None:
+    raw = run_battery(_example("opencv_bm.py", "stereo_bm_raw"), tmp_path / "raw")
+    assert _failed(raw) == {"invalid_marking"}
+    assert not _failed(run_battery(_example("opencv_bm.py", "stereo_bm"), tmp_path / "fixed"))

@@ -281,20 +281,30 @@ def _cropped() -> st.SearchStrategy[_Case]:
 
 
 def _photometric(kind: str) -> st.SearchStrategy[_Case]:
+    """Low-contrast shifted pairs (contrast ``c``: ``128 + c (v - 128)``) with the right view
+    changed: by a gain and bias (no clipping), or by a monotone grey map."""
+
+    def low(c: _Case, contrast: float) -> tuple[np.ndarray, np.ndarray]:
+        return tuple(128.0 + contrast * (v.astype(np.float64) - 128.0) for v in (c.left, c.right))
+
     def gain_bias(t) -> _Case:
-        c, gain, frac = t
-        bias = frac * 255.0 * (1.0 - gain)  # keeps every level inside 0..255: no clipping
-        right = np.round(gain * c.right.astype(np.float64) + bias).astype(np.uint8)
-        return _Case(c.left, right, c.truth, f"{c.what}, right view x {gain:.2f} + {bias:.0f}")
+        c, contrast, gain, bias = t
+        left, right = low(c, contrast)
+        right = np.clip(np.round(128.0 + gain * (right - 128.0) + bias), 0, 255)
+        return _Case(np.round(left).astype(np.uint8), right.astype(np.uint8), c.truth,
+                     f"{c.what}, contrast {contrast:.2f}, right view x {gain:.2f} {bias:+.0f}")
 
     def grey_map(t) -> _Case:
-        c, lut = t
+        c, contrast, lut = t
+        left, right = (np.round(v).astype(np.uint8) for v in low(c, contrast))
         lut8 = np.floor(lut * 255.0 / lut[-1]).astype(np.uint8)
-        return _Case(c.left, lut8[c.right], c.truth, f"{c.what}, a monotone grey map on the right")
+        return _Case(left, lut8[right], c.truth,
+                     f"{c.what}, contrast {contrast:.2f}, a monotone grey map on the right")
 
+    shifts, contrast = _shifts(smooth=(0.5, 1.5)), st.floats(0.15, 0.4)
     if kind == "gain_bias":
-        return st.tuples(_shifts(), st.floats(0.6, 1.0), st.floats(0.0, 1.0)).map(gain_bias)
-    return st.tuples(_shifts(), monotone_maps()).map(grey_map)
+        return st.tuples(shifts, contrast, st.floats(0.5, 2.0), st.floats(-40.0, 40.0)).map(gain_bias)
+    return st.tuples(shifts, contrast, monotone_maps()).map(grey_map)
 
 
 def _contract_images() -> st.SearchStrategy[_Case]:
