@@ -153,3 +153,13 @@ def test_the_tutorials_stereobm_fails_invalid_marking_until_fixed(tmp_path: Path
     raw = run_battery(_example("opencv_bm.py", "stereo_bm_raw"), tmp_path / "raw")
     assert _failed(raw) == {"invalid_marking"}
     assert not _failed(run_battery(_example("opencv_bm.py", "stereo_bm"), tmp_path / "fixed"))
+
+
+def test_the_tutorial_quotes_the_example_files_as_they_are() -> None:
+    page = (_EXAMPLES.parent / "validate.md").read_text()
+    sad = (_EXAMPLES / "sad_matcher.py").read_text()
+    assert sad[sad.index("import numpy"):] in page
+    bm = (_EXAMPLES / "opencv_bm.py").read_text()
+    body = bm[bm.index("def stereo_bm_raw"):bm.index("\n\n\ndef stereo_bm(")]
+    quoted = "\n".join(ln for ln in body.splitlines() if not ln.strip().startswith('"""'))
+    assert quoted in page

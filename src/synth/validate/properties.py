@@ -420,7 +420,7 @@ def run_battery(matcher: Callable[..., np.ndarray], out_dir: Path, *, suite: str
     out_dir : Path
         Folder (created if needed) for ``properties.json`` and ``properties/<name>/*.png``.
     suite : {"quick", "full"}
-        Examples per property (:data:`SUITES`); ``quick`` takes about a second for CT-9.
+        Examples per property (:data:`SUITES`); ``quick`` takes a few seconds for CT-9.
     name : str
         Label of the matcher in ``properties.json``.
 

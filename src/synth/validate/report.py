@@ -239,8 +239,7 @@ def _properties(out_dir: Path, doc: dict) -> list[str]:
            + ". Robustness properties are reported, not required. Counterexamples (shrunk by "
            "hypothesis): left, right, expected and answer (disparity 0 … max, black = no "
            "estimate).</p>",
-           "<table><tr><th>property</th><th>required</th><th>result</th><th>explanation</th>"
-           "<th>counterexample</th></tr>"]
+           "<table><tr><th>property</th><th>required</th><th>result</th><th>explanation</th></tr>"]
     for p in props:
         pics = []
         for rel in p.get("counterexample") or []:
@@ -255,7 +254,9 @@ def _properties(out_dir: Path, doc: dict) -> list[str]:
         out.append(f"<tr class='{'pass' if p.get('passed') else 'fail'}'>"
                    f"<td>{html.escape(str(p.get('name')))}</td>"
                    f"<td>{'yes' if p.get('required') else 'no (robustness)'}</td><td>{result}</td>"
-                   f"<td>{html.escape(str(p.get('explanation')))}</td><td>{''.join(pics)}</td></tr>")
+                   f"<td>{html.escape(str(p.get('explanation')))}</td></tr>")
+        if pics:
+            out.append(f"<tr class='cx'><td colspan='4'>counterexample: {''.join(pics)}</td></tr>")
     return out + ["</table>"]
 
 
@@ -269,6 +270,7 @@ tr.better td:last-child { color: #070; }
 .note { color: #a60; }
 img { max-width: 100%; }
 img.px { image-rendering: pixelated; width: 96px; }
+tr.cx td { border-top: none; }
 figure { display: inline-block; margin: 0 0.3em; text-align: center; font-size: 0.75em; }
 """
 
