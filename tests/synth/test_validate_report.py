@@ -170,9 +170,10 @@ def test_report_sections(validate_dir: Path) -> None:
     # the 3 x 3 census is clearly worse than CT-9 on noise-free warped pairs
     assert re.search(r"worse on: [^<]*noise / all", page)
     assert page.count("<img") >= 2 + 4  # two axis plots, four error-map sets, counterexamples
+    assert page.count("data:image/svg+xml") == 2  # the axis plots
     assert "src='http" not in page and 'src="http' not in page and "<script" not in page
     for uri in re.findall(r"src='([^']*)'", page):
-        assert uri.startswith("data:image/png;base64,")
+        assert uri.startswith(("data:image/png;base64,", "data:image/svg+xml;base64,"))
 
 
 def test_report_lists_every_property_with_its_counterexample(validate_dir: Path) -> None:
