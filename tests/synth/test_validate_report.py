@@ -228,8 +228,9 @@ def test_report_has_no_broken_image_in_chromium(validate_dir: Path, tmp_path: Pa
     """Chromium loads a copy of the page with a load-time check appended and dumps the DOM.
 
     ``--dump-dom`` prints the DOM after the load event, so the check's result (every <img>
-    ``complete`` with ``naturalWidth > 0``) is in the output; a screenshot of the page is taken
-    too and must be a non-blank PNG. ``--no-sandbox`` because CI runs as root.
+    ``complete`` with ``naturalWidth > 0``) is in the output; the same check on a page with a
+    truncated PNG must name it. A screenshot of the page is taken too and must be a non-blank PNG.
+    ``--no-sandbox`` because CI runs as root.
     """
     exe = _chromium()
     if exe is None:
@@ -239,16 +240,24 @@ def test_report_has_no_broken_image_in_chromium(validate_dir: Path, tmp_path: Pa
                             "apt-get install chromium")
         require_or_skip("chromium not found; apt-get install chromium",
                         env="STEREOFORGE_REQUIRE_CHROMIUM")
-    page = (validate_dir / "report.html").read_text()
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.replace("</body>", _CHECK_IMAGES + "</body>"))
     flags = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
              f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000"]
-    dom = subprocess.run([*flags, "--dump-dom", probe.as_uri()], capture_output=True, text=True,
-                         timeout=120, check=True).stdout
-    found = re.search(r"images=(\d+) broken=(\[.*?\])", dom)
-    assert found, f"the check did not run; chromium printed: {dom[:500]!r}"
-    assert int(found.group(1)) == page.count("<img") and found.group(2) == "[]"
+
+    def broken_images(page: str, name: str) -> tuple[int, str]:
+        probe = tmp_path / name
+        probe.write_text(page.replace("</body>", _CHECK_IMAGES + "</body>"))
+        dom = subprocess.run([*flags, "--dump-dom", probe.as_uri()], capture_output=True,
+                             text=True, timeout=120, check=True).stdout
+        found = re.search(r"images=(\d+) broken=(\[.*?\])", dom)
+        assert found, f"the check did not run; chromium printed: {dom[:500]!r}"
+        return int(found.group(1)), found.group(2)
+
+    page = (validate_dir / "report.html").read_text()
+    assert broken_images(page, "probe.html") == (page.count("<img"), "[]")
+    # the check sees a broken image: a truncated PNG
+    bad = page.replace("<h2>Summary</h2>",
+                       "<img alt='truncated' src='data:image/png;base64,iVBORw0KGgo='><h2>Summary</h2>")
+    assert broken_images(bad, "bad.html") == (page.count("<img") + 1, '["truncated"]')
     shot = tmp_path / "shot.png"
     subprocess.run([*flags, f"--screenshot={shot}", "--window-size=1200,2000",
                     (validate_dir / "report.html").as_uri()], capture_output=True, timeout=120,
