@@ -167,6 +167,7 @@ def test_report_sections(validate_dir: Path) -> None:
     for heading in ("Summary", "Axes", "Worst samples", "Properties"):
         assert f"<h2>{heading}</h2>" in page
     assert "against ct:9" in page and "against bm:9" in page
+    assert "<h3>Speed</h3>" in page and "<td>bm:9</td><td>15</td><td>0.01</td><td>3.7</td>" in page
     # the 3 x 3 census is clearly worse than CT-9 on noise-free warped pairs
     assert re.search(r"worse on: [^<]*noise / all", page)
     assert page.count("<img") >= 2 + 4  # two axis plots, four error-map sets, counterexamples

@@ -290,6 +290,26 @@ def _summary(rows: list[dict], matcher: str, references: Sequence[str]) -> list[
     return out
 
 
+def _speed(rows: list[dict], matchers: Sequence[str]) -> list[str]:
+    """Median seconds per pair and median Mpix x disparities / s of each matcher."""
+    lines = []
+    for m in matchers:
+        per_pair = {(r["axis"], r["value"], r["seed"]): r for r in rows
+                    if r["matcher"] == m and not r["error"]}
+        secs = [r["seconds"] for r in per_pair.values() if r["seconds"] is not None]
+        rate = [r["mpix_disp_per_s"] for r in per_pair.values() if r["mpix_disp_per_s"] is not None]
+        if secs:
+            lines.append(f"<tr><td>{html.escape(m)}</td><td>{len(per_pair)}</td>"
+                         f"<td>{float(np.median(secs)):.3g}</td>"
+                         f"<td>{float(np.median(rate)) if rate else math.nan:.3g}</td></tr>")
+    if not lines:
+        return []
+    return ["<h3>Speed</h3><p>Over the pairs each matcher answered (wall time of one call, as the "
+            "sweep measured it, on this run's machine and workers).</p><table><tr><th>matcher"
+            "</th><th>pairs</th><th>median s / pair</th><th>median Mpix·disparities / s</th>"
+            "</tr>", *lines, "</table>"]
+
+
 def _properties(out_dir: Path, doc: dict) -> list[str]:
     props = doc.get("properties", [])
     failed = [p["name"] for p in props if p.get("required") and not p.get("passed")]
@@ -373,6 +393,7 @@ def write_report(out_dir: Path, *, matcher: str, references: Sequence[str]) -> P
                         f"{html.escape(failed[0][0])} = {failed[0][1]:g}, seed {failed[0][2]}: "
                         f"{html.escape(failed[0][3])}</p>")
         body += _summary(rows, matcher, references)
+        body += _speed(rows, [matcher, *references])
         body.append("<h2>Axes</h2><p>bad-2 (% of the region's pixels with ground truth whose "
                     "error exceeds 2 px or that have no estimate) against each axis value; mean "
                     "over seeds, bars: 95 % t-interval.</p>")
