@@ -11,7 +11,7 @@ import pytest
 from matcher import match
 from matcher.io import read_image
 from stereoforge.errors import ParameterError
-from synth.validate.properties import PROPERTIES, run_battery
+from synth.validate.properties import MAX_TIMEOUTS, PROPERTIES, run_battery
 
 REQUIRED = {p.name for p in PROPERTIES if p.required}
 ACCURACY = {"integer_shift", "subpixel_shift", "planar_warp"}
@@ -163,3 +163,25 @@ def test_the_tutorial_quotes_the_example_files_as_they_are() -> None:
     body = bm[bm.index("def stereo_bm_raw"):bm.index("\n\n\ndef stereo_bm(")]
     quoted = "\n".join(ln for ln in body.splitlines() if not ln.strip().startswith('"""'))
     assert quoted in page
+
+
+def test_an_adapters_failure_is_reported_as_is_and_a_hanging_matcher_is_given_up(
+        tmp_path: Path) -> None:
+    from stereoforge.errors import StereoforgeError
+
+    class MatcherFailure(StereoforgeError):  # what matcher.adapters raises
+        pass
+
+    calls = []
+
+    def hangs(left, right, *, max_disparity):
+        calls.append(1)
+        raise MatcherFailure("timed out after 60 s")
+
+    entries = run_battery(hangs, tmp_path)
+    assert len(calls) == MAX_TIMEOUTS
+    # one time-out per property (a property stops at its first failure), then no more calls
+    assert all(e["explanation"].startswith("timed out after 60 s on ")
+               for e in entries[:MAX_TIMEOUTS])
+    assert all(e["explanation"].startswith(f"not called: it timed out {MAX_TIMEOUTS} times")
+               for e in entries[MAX_TIMEOUTS:])

@@ -36,7 +36,7 @@ from matcher.io import atomic_write_bytes, encode_png
 from matcher.testing import grey_images, monotone_maps, piecewise_planar_pairs, shifted_pairs, textured_images
 from stereoforge.errors import ParameterError
 
-__all__ = ["MARGIN", "MAX_DISPARITY", "PROPERTIES", "SUITES", "Property", "run_battery"]
+__all__ = ["MARGIN", "MAX_DISPARITY", "MAX_TIMEOUTS", "PROPERTIES", "SUITES", "Property", "run_battery"]
 
 #: Disparity search range the battery asks for (``max_disparity=``).
 MAX_DISPARITY = 16
@@ -67,18 +67,35 @@ class _MatcherFault(Exception):
     """The matcher raised or returned something unusable (message: what it did)."""
 
 
+#: After this many timed-out calls the matcher is not called again (each may cost a --timeout).
+MAX_TIMEOUTS = 2
+
+
 @dataclass
 class _Caller:
+    """Calls the matcher with RGB views; turns whatever goes wrong into :class:`_MatcherFault`.
+
+    A :class:`matcher.adapters.MatcherFailure` (what an adapter raises: ``"crashed: ..."``,
+    ``"timed out after 60 s"``, ...) is reported with its own message; after
+    :data:`MAX_TIMEOUTS` time-outs the matcher is not called again.
+    """
+
     matcher: Callable[..., np.ndarray]
     calls: int = 0
+    timeouts: int = 0
 
     def __call__(self, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+        if self.timeouts >= MAX_TIMEOUTS:
+            raise _MatcherFault(f"not called: it timed out {self.timeouts} times already")
         self.calls += 1
         rgb_l, rgb_r = (np.repeat(v[..., None], 3, axis=2) for v in (left, right))
         try:
             value = self.matcher(rgb_l, rgb_r, max_disparity=MAX_DISPARITY)
         except Exception as exc:  # noqa: BLE001 - any failure of the user's code is a result
             text = (str(exc).strip().splitlines() or [""])[0][:200]
+            if type(exc).__name__ == "MatcherFailure":  # matcher.adapters: already one line
+                self.timeouts += text.startswith("timed out")
+                raise _MatcherFault(text) from None
             raise _MatcherFault(f"raised {type(exc).__name__}: {text}".rstrip(": ")) from None
         return _check_answer(value, left.shape)
 
