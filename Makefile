@@ -8,7 +8,7 @@ VENV      ?= .venv
 PY        := $(VENV)/bin/python
 PIP       := $(PY) -m pip
 SYS_PKGS  := python3-venv libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgles2 libosmesa6 libglu1-mesa \
-             g++ make libpng++-dev tcsh
+             g++ make libpng++-dev tcsh chromium
 PYTEST_ARGS ?=
 
 .PHONY: demo test setup system venv bench clean
@@ -23,7 +23,8 @@ setup: system venv
 
 # System libraries for headless OpenGL, and the compilers/libraries the tests need to build the
 # real stereo tools of ../shared/clients (MiddEval3 SDK: g++, libpng; its runeval: tcsh; KITTI
-# devkit: libpng++). Skipped when already installed.
+# devkit: libpng++), and headless Chromium, which opens a validate report.html in a test (no
+# broken image). Skipped when already installed.
 system:
 	@if dpkg -s $(SYS_PKGS) >/dev/null 2>&1; then \
 	  echo "system packages present: $(SYS_PKGS)"; \
