@@ -18,11 +18,15 @@ The round trip of these dataclasses lives in :mod:`scenes.spec` with every other
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
 
 from stereoforge.validation import check_bool, check_choice, check_real, check_sequence, check_type, fail
 
-__all__ = ["LAMP_KINDS", "MAX_LAMPS", "MaterialSpec", "LampSpec"]
+__all__ = ["LAMP_KINDS", "MAX_LAMPS", "MaterialSpec", "LampSpec", "turn_lights"]
 
 #: Lamp kinds: a directional light (parallel rays) or a point light (inverse-square falloff).
 LAMP_KINDS: tuple[str, ...] = ("directional", "point")
@@ -118,3 +122,52 @@ class LampSpec:
         _set(self, "intensity", check_real(self.intensity, "LampSpec.intensity", lo=0.0,
                                            hi=1e6))
         _set(self, "shadows", check_bool(self.shadows, "LampSpec.shadows"))
+
+
+def _rotate(v: np.ndarray, axis: np.ndarray, degrees: float) -> np.ndarray:
+    """``v`` turned by ``degrees`` about the unit ``axis`` (Rodrigues)."""
+    t = np.deg2rad(degrees)
+    return v * np.cos(t) + np.cross(axis, v) * np.sin(t) + axis * (axis @ v) * (1 - np.cos(t))
+
+
+def _turned(v: np.ndarray, degrees: float, rng: np.random.Generator) -> tuple[float, ...]:
+    """``v`` turned by ``degrees`` about a random axis perpendicular to it."""
+    axis = np.cross(v, rng.normal(size=3))
+    if not np.linalg.norm(axis) > 0:  # a point lamp at the scene centre stays there
+        return tuple(float(c) for c in v)
+    return tuple(float(c) for c in _rotate(v, axis / np.linalg.norm(axis), degrees))
+
+
+def turn_lights(scene: Any, degrees: float, rng: np.random.Generator) -> tuple[Any, tuple[LampSpec, ...]]:
+    """A scene's light and lamps with every direction turned by ``degrees`` (another lighting).
+
+    The classic light's direction and each directional lamp's direction turn about a random
+    axis perpendicular to them; each point lamp turns the same way about the scene centre
+    ``(0, 0, z)`` (``z`` the median depth of the objects). The axes come from ``rng``. This is
+    the ``im1L`` relighting of datasets (``lighting_variant``) and of ``stereoforge render``.
+
+    Returns
+    -------
+    (scenes.LightSpec, tuple of LampSpec)
+
+    Examples
+    --------
+    >>> import scenes
+    >>> spec = scenes.get_preset("fronto_plane")
+    >>> light, lamps = turn_lights(spec, 30.0, np.random.default_rng(0))
+    >>> round(float(np.degrees(np.arccos(light.unit_direction() @ spec.light.unit_direction()))), 6)
+    30.0
+    """
+    degrees = check_real(degrees, "lighting variant (degrees)", lo=0.0, hi=180.0)
+    light = dataclasses.replace(scene.light,
+                                direction=_turned(scene.light.unit_direction(), degrees, rng))
+    centre = np.array([0.0, 0.0, float(np.median([o.pose.translation[2] for o in scene.objects]))])
+    lamps = []
+    for lamp in scene.lamps:
+        if lamp.kind == "directional":
+            new = {"direction": _turned(np.asarray(lamp.direction, dtype=np.float64), degrees, rng)}
+        else:
+            v = np.asarray(lamp.position, dtype=np.float64) - centre
+            new = {"position": tuple(float(c) for c in np.asarray(_turned(v, degrees, rng)) + centre)}
+        lamps.append(dataclasses.replace(lamp, **new))
+    return light, tuple(lamps)

@@ -8,6 +8,7 @@ the right view or projecting outside it, 0 no ground truth.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.metadata
 from dataclasses import dataclass
@@ -61,7 +62,9 @@ class StereoPair:
     rig : StereoRig
     meta : Mapping
         ``scene``, ``seed``, ``backend``, ``renderer`` (GL_RENDERER),
-        ``gl_version``, ``mask_tolerances`` and package ``versions``.
+        ``gl_version``, ``mask_tolerances`` and package ``versions``; for lit scenes
+        ``specular`` (whether an object is specular), with the variants ``exposure_variant``
+        (the factor) and ``lighting_variant`` (the light and lamps of ``im1L``).
     highlight_left, highlight_right : (H, W) uint8 array or None
         Scenes with a specular material only: 255 where the specular term raises the displayed
         value of some channel at the pixel centre by at least
@@ -194,7 +197,7 @@ def expose(image: np.ndarray, factor: float) -> np.ndarray:
     >>> expose(np.array([[0, 128, 255]], np.uint8), 0.5).tolist()
     [[0, 93, 186]]
     """
-    factor = check_real(factor, "exposure", lo=0.0, lo_open=True, hi=256.0,
+    factor = check_real(factor, "exposure", lo=0.0, lo_open=True, hi=16.0,
                         fix="a linear factor such as 0.5 (one stop darker)")
     linear = (np.asarray(image, dtype=np.float64) / 255.0) ** DISPLAY_GAMMA * factor
     return np.rint(255.0 * np.minimum(linear, 1.0) ** (1.0 / DISPLAY_GAMMA)).astype(np.uint8)
@@ -275,6 +278,11 @@ def render_pair(
         "mask_tolerances": {"lerp_tol": LERP_TOL, "edge_tol": EDGE_TOL},
         "versions": dict(_versions()),
     }
+    if exposure is not None:  # recorded only when asked for: other pairs keep their scene.json
+        meta["exposure_variant"] = float(exposure)
+    if lighting is not None:
+        meta["lighting_variant"] = {"light": dataclasses.asdict(lighting.light),
+                                    "lamps": [dataclasses.asdict(lamp) for lamp in lighting.lamps]}
     return StereoPair(
         left=_readonly(left.color),
         right=_readonly(right.color),

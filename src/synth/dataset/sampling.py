@@ -27,6 +27,7 @@ from scenes import (
     TextureSpec,
     get_preset,
 )
+from scenes.materials import turn_lights
 from synth.dataset.config import DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
@@ -131,17 +132,6 @@ def _item(config: DatasetConfig, key: str, rng: np.random.Generator) -> Any:
     return _PER_ITEM_DEFAULTS[key] if dist is None else dist.sample(rng)
 
 
-def _rotate(v: np.ndarray, axis: np.ndarray, degrees: float) -> np.ndarray:
-    """``v`` turned by ``degrees`` about the unit ``axis`` (Rodrigues)."""
-    t = np.deg2rad(degrees)
-    return v * np.cos(t) + np.cross(axis, v) * np.sin(t) + axis * (axis @ v) * (1 - np.cos(t))
-
-
-def _perpendicular(v: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    a = np.cross(v, rng.normal(size=3))
-    return a / np.linalg.norm(a)
-
-
 def _materials_and_lamps(scene: SceneSpec, draw: Mapping[str, Any], config: DatasetConfig,
                          rng: np.random.Generator) -> tuple[SceneSpec, dict[str, Any]]:
     """Specular materials per object and lamps per the [scene] keys, and how many objects
@@ -179,28 +169,6 @@ def _materials_and_lamps(scene: SceneSpec, draw: Mapping[str, Any], config: Data
     return scene, drawn
 
 
-def _relight(scene: SceneSpec, degrees: float, rng: np.random.Generator
-             ) -> tuple[LightSpec, tuple[LampSpec, ...]]:
-    """The light directions turned by ``degrees`` about random perpendicular axes; point lamps
-    moved the same way about the scene centre (``lighting_variant``)."""
-    d = scene.light.unit_direction()
-    light = dataclasses.replace(scene.light, direction=tuple(
-        float(c) for c in _rotate(d, _perpendicular(d, rng), degrees)))
-    z = float(np.median([o.pose.translation[2] for o in scene.objects]))
-    lamps = []
-    for lamp in scene.lamps:
-        if lamp.kind == "directional":
-            v = np.asarray(lamp.direction, dtype=np.float64)
-            new = {"direction": tuple(float(c) for c in _rotate(v, _perpendicular(v, rng),
-                                                                  degrees))}
-        else:
-            v = np.asarray(lamp.position, dtype=np.float64) - (0.0, 0.0, z)
-            turned = _rotate(v, _perpendicular(v, rng), degrees) + (0.0, 0.0, z)
-            new = {"position": tuple(float(c) for c in turned)}
-        lamps.append(dataclasses.replace(lamp, **new))
-    return light, tuple(lamps)
-
-
 def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """Draw sample ``index``'s parameters and build its scene.
 
@@ -233,7 +201,7 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     scene, per_item = _materials_and_lamps(scene, scene_draw, config, light_rng)
     relight = None
     if scene_draw.get("lighting_variant") is not None:
-        relight = _relight(scene, float(scene_draw["lighting_variant"]), light_rng)
+        relight = turn_lights(scene, float(scene_draw["lighting_variant"]), light_rng)
     params = {f"scene.{k}": v for k, v in scene_draw.items()}
     params.update({f"scene.{k}": v for k, v in per_item.items()})
     params.update({f"photometric.{k}": v for k, v in phot_draw.items()})
