@@ -7,7 +7,9 @@ material or a lamp is *lit*: the renderer evaluates, per fragment and with the v
 the eye being rendered,
 
     radiance = albedo * (ambient + sum_k E_k * max(n . l_k, 0))
-             + specular * sum_k E_k * max(n . h_k, 0) ** shininess   [n . l_k > 0]
+             + specular * sum_k E_k * lobe(n, l_k, v)   [n . l_k > 0]
+
+with the Blinn-Phong lobe ``max(n . h_k, 0) ** shininess`` or the GGX lobe (:class:`MaterialSpec`),
 
 in linear light (albedo = the display-encoded texture x tint raised to the display gamma), over
 the classic light (unshadowed) and every lamp (shadowed when ``shadows``), then encodes the result
@@ -26,8 +28,10 @@ import numpy as np
 
 from stereoforge.validation import check_bool, check_choice, check_real, check_sequence, check_type, fail
 
-__all__ = ["LAMP_KINDS", "MAX_LAMPS", "MaterialSpec", "LampSpec", "turn_lights"]
+__all__ = ["LAMP_KINDS", "MAX_LAMPS", "SPECULAR_MODELS", "MaterialSpec", "LampSpec", "turn_lights"]
 
+#: Specular lobes: Blinn-Phong (``shininess``) or GGX / Trowbridge-Reitz (``roughness``).
+SPECULAR_MODELS: tuple[str, ...] = ("blinn-phong", "ggx")
 #: Lamp kinds: a directional light (parallel rays) or a point light (inverse-square falloff).
 LAMP_KINDS: tuple[str, ...] = ("directional", "point")
 #: Lamps a scene may hold (the renderer's uniform arrays: the classic light takes one more slot).
@@ -47,7 +51,7 @@ def _vec3(value: object, name: str) -> tuple[float, ...]:
 
 @dataclass(frozen=True)
 class MaterialSpec:
-    """The reflectance of one object beyond its texture: a Blinn-Phong specular lobe.
+    """The reflectance of one object beyond its texture: a Blinn-Phong or GGX specular lobe.
 
     Parameters
     ----------
@@ -57,6 +61,12 @@ class MaterialSpec:
     shininess : float
         Blinn-Phong exponent in [1, 10000]: larger is a smaller, sharper highlight (8: plastic
         under a broad lobe, 64: glossy paint, 512: polished).
+    model : {"blinn-phong", "ggx"}
+        The lobe. ``"ggx"``: the microfacet lobe ``D(h) G1(l) G1(v) / (4 n.v)`` per unit
+        irradiance, with the GGX (Trowbridge-Reitz) distribution ``D`` of ``alpha = roughness**2``
+        and Smith's separable masking ``G1``, no Fresnel term (``specular`` scales it).
+    roughness : float
+        GGX roughness in [0.02, 1] (ignored by Blinn-Phong): 0.1 polished, 0.5 satin.
 
     Examples
     --------
@@ -66,8 +76,14 @@ class MaterialSpec:
 
     specular: float = 0.0
     shininess: float = 32.0
+    model: str = "blinn-phong"
+    roughness: float = 0.3
 
     def __post_init__(self) -> None:
+        check_choice(check_type(self.model, "MaterialSpec.model", str), "MaterialSpec.model",
+                     SPECULAR_MODELS)
+        _set(self, "roughness", check_real(self.roughness, "MaterialSpec.roughness", lo=0.02,
+                                           hi=1.0))
         _set(self, "specular", check_real(self.specular, "MaterialSpec.specular", lo=0.0,
                                           hi=_MAX_SPECULAR))
         _set(self, "shininess", check_real(self.shininess, "MaterialSpec.shininess", lo=1.0,

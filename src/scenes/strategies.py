@@ -19,7 +19,7 @@ import math
 
 from hypothesis import strategies as st
 
-from scenes.materials import LAMP_KINDS, LampSpec, MaterialSpec
+from scenes.materials import LAMP_KINDS, SPECULAR_MODELS, LampSpec, MaterialSpec
 from scenes.spec import (
     MAX_EXTENT,
     OBJECT_KINDS,
@@ -84,7 +84,8 @@ def object_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = tuple(OBJECT_KINDS
 def material_specs() -> st.SearchStrategy[MaterialSpec]:
     """:class:`MaterialSpec` values (matte ones included)."""
     return st.builds(MaterialSpec, specular=st.floats(0.0, 16.0),
-                     shininess=st.floats(1.0, 10_000.0))
+                     shininess=st.floats(1.0, 10_000.0), model=st.sampled_from(SPECULAR_MODELS),
+                     roughness=st.floats(0.02, 1.0))
 
 
 def lamp_specs() -> st.SearchStrategy[LampSpec]:

@@ -23,7 +23,9 @@ def test_matte_scenes_write_neither_material_nor_lamps() -> None:
 def test_materials_and_lamps_round_trip_exactly() -> None:
     base = scenes.get_preset("boxes")
     shiny = dataclasses.replace(base.objects[0], material=MaterialSpec(0.7, 128.0))
-    spec = dataclasses.replace(base, objects=(shiny, *base.objects[1:]), lamps=(
+    rough = dataclasses.replace(base.objects[1], material=MaterialSpec(0.2, model="ggx",
+                                                                       roughness=0.4))
+    spec = dataclasses.replace(base, objects=(shiny, rough, *base.objects[2:]), lamps=(
         LampSpec("point", position=(0.5, -1.0, 0.2), intensity=3.0),
         LampSpec("directional", direction=(-0.2, 0.4, 1.0), shadows=False)))
     assert spec.is_lit() and spec.has_specular()
@@ -37,6 +39,8 @@ def test_materials_and_lamps_round_trip_exactly() -> None:
     ({"material": {"specular": -0.1}}, r"objects\[0\].material: MaterialSpec.specular: expected a finite number in \[0.0, 16.0\]"),
     ({"material": {"shininess": 0.5}}, r"MaterialSpec.shininess"),
     ({"material": {"gloss": 1.0}}, r"gloss"),
+    ({"material": {"model": "phong"}}, r"MaterialSpec.model"),
+    ({"material": {"roughness": 0.0}}, r"MaterialSpec.roughness: expected a finite number in \[0.02, 1.0\]"),
 ])
 def test_bad_materials_are_refused_with_one_error(change: dict, match: str) -> None:
     data = scenes.scene_to_dict(scenes.get_preset("fronto_plane"))

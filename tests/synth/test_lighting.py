@@ -23,7 +23,7 @@ def _wall(z: float = 2.0, material: MaterialSpec = MaterialSpec()) -> ObjectSpec
 
 
 def _blinn_phong_plane(eye_x: float, *, z: float, ambient: float, intensity: float,
-                       ks: float, shininess: float) -> np.ndarray:
+                       ks: float, shininess: float, roughness: float = 0.0) -> np.ndarray:
     """Closed form of a white fronto plane at depth z lit head-on (light travelling along +z),
     seen by the camera at (eye_x, 0, 0)."""
     u, v = np.meshgrid(np.arange(RIG.width), np.arange(RIG.height))
@@ -33,7 +33,14 @@ def _blinn_phong_plane(eye_x: float, *, z: float, ambient: float, intensity: flo
     half = view + np.array([0.0, 0.0, -1.0])
     half /= np.linalg.norm(half, axis=-1, keepdims=True)
     n_h = -half[..., 2]  # normal (0, 0, -1)
-    linear = ambient + intensity + ks * intensity * n_h ** shininess
+    if roughness:  # GGX with n . l = 1, so G1(l) = 1
+        a2 = roughness ** 4
+        n_v = -view[..., 2]
+        g_v = 2 * n_v / (n_v + np.sqrt(a2 + (1 - a2) * n_v ** 2))
+        lobe = a2 / (np.pi * (n_h ** 2 * (a2 - 1) + 1) ** 2) * g_v / (4 * n_v)
+    else:
+        lobe = n_h ** shininess
+    linear = ambient + intensity + ks * intensity * lobe
     return 255.0 * np.clip(linear, 0.0, 1.0) ** (1 / 2.2)
 
 
@@ -57,6 +64,20 @@ def test_blinn_phong_on_a_plane_matches_the_closed_form_in_both_views(renderer) 
     # the same surface point: left x, right x - d; its colour differs (view-dependent)
     x = int(RIG.cx)
     assert int(pair.left[36, x, 1]) - int(pair.right[36, x - int(d), 1]) >= 10
+
+
+@pytest.mark.gl
+def test_ggx_on_a_plane_matches_the_closed_form(renderer) -> None:
+    ks, roughness, ambient, intensity = 0.05, 0.25, 0.2, 0.3
+    material = MaterialSpec(ks, model="ggx", roughness=roughness)
+    scene = SceneSpec("ggx wall", (_wall(material=material),),
+                      light=LightSpec((0.0, 0.0, 1.0), intensity, ambient))
+    pair = render_pair(scene, RIG, renderer=renderer)
+    for image, eye_x in ((pair.left, 0.0), (pair.right, RIG.baseline)):
+        want = _blinn_phong_plane(eye_x, z=2.0, ambient=ambient, intensity=intensity, ks=ks,
+                                  shininess=1.0, roughness=roughness)
+        assert want.max() - want.min() > 30  # a real highlight
+        assert np.abs(image[..., 1].astype(float) - want).max() <= 1.5
 
 
 def _ball_scene(material: MaterialSpec) -> SceneSpec:

@@ -27,7 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from scenes import PRESETS
-from scenes.materials import MAX_LAMPS
+from scenes.materials import MAX_LAMPS, SPECULAR_MODELS
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
 from stereoforge.validation import check_keys, describe
@@ -103,6 +103,10 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
                         doc="specular strength of a specular object, drawn per object"),
         "shininess": Key("float", None, lo=1.0, hi=10_000.0,
                          doc="Blinn-Phong exponent of a specular object, drawn per object"),
+        "specular_model": Key("str", None, choices=SPECULAR_MODELS,
+                              doc="specular lobe of a specular object, drawn per object"),
+        "roughness": Key("float", None, lo=0.02, hi=1.0,
+                         doc="GGX roughness of a specular object, drawn per object"),
         "lamps": Key("int", None, lo=0, hi=MAX_LAMPS, doc="number of lamps added"),
         "lamp_intensity": Key("float", None, lo=0.0, hi=100.0,
                               doc="irradiance of each lamp at the scene centre, drawn per lamp"),

@@ -37,9 +37,10 @@ __all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_freq
 (_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC, _STREAM_LIGHT,
  STREAM_EXPOSURE_NOISE, STREAM_LIGHTING_NOISE) = range(7)
 #: [scene] keys drawn per object or per lamp from the light stream, not once per sample.
-_PER_ITEM = ("specular", "shininess", "lamp_intensity", "lamp_shadows")
-_PER_ITEM_DEFAULTS = {"specular": 0.5, "shininess": 32.0, "lamp_intensity": 0.5,
-                      "lamp_shadows": True}
+_PER_ITEM = ("specular", "shininess", "specular_model", "roughness", "lamp_intensity",
+             "lamp_shadows")
+_PER_ITEM_DEFAULTS = {"specular": 0.5, "shininess": 32.0, "specular_model": "blinn-phong",
+                      "roughness": 0.3, "lamp_intensity": 0.5, "lamp_shadows": True}
 #: Occluder texture frequency (cycles per pixel) when the config sets none (as the presets: 8 px).
 _DEFAULT_OCCLUDER_FREQUENCY_PX = 0.125
 
@@ -143,7 +144,9 @@ def _materials_and_lamps(scene: SceneSpec, draw: Mapping[str, Any], config: Data
         for obj in scene.objects:
             if rng.random() < fraction:
                 material = MaterialSpec(float(_item(config, "specular", rng)),
-                                        float(_item(config, "shininess", rng)))
+                                        float(_item(config, "shininess", rng)),
+                                        str(_item(config, "specular_model", rng)),
+                                        float(_item(config, "roughness", rng)))
                 obj = dataclasses.replace(obj, material=material)
             objects.append(obj)
         scene = dataclasses.replace(scene, objects=tuple(objects))

@@ -1,4 +1,4 @@
-"""Lit scenes: per-fragment Blinn-Phong shading from several lights, shadow maps, highlight masks.
+"""Lit scenes: per-fragment Blinn-Phong or GGX shading from several lights, shadow maps, highlight masks.
 
 Only scenes that need it take this path (``SceneSpec.is_lit()``: a specular material or a lamp,
 see :mod:`scenes.materials`); every other scene keeps the flat program of
@@ -151,6 +151,7 @@ uniform float ambient;
 uniform vec3 eye;
 uniform float specular;
 uniform float shininess;
+uniform float roughness;            // > 0: the GGX lobe of alpha = roughness^2; 0: Blinn-Phong
 uniform int double_sided;
 uniform int mode;                   // 0: colour; 1: highlight excess, grey levels
 uniform float gamma;
@@ -189,7 +190,17 @@ void main() {
             e *= texture(shadow_maps, vec4(s, float(layer), ref));
         }
         diffuse += e * ndl;
-        spec += e * pow(max(dot(n, normalize(l + v)), 0.0), shininess);
+        float ndh = max(dot(n, normalize(l + v)), 0.0);
+        if (roughness > 0.0) {
+            float a2 = roughness * roughness * roughness * roughness;
+            float ndv = max(dot(n, v), 1e-4);
+            float t = ndh * ndh * (a2 - 1.0) + 1.0;
+            float g_l = 2.0 * ndl / (ndl + sqrt(a2 + (1.0 - a2) * ndl * ndl));
+            float g_v = 2.0 * ndv / (ndv + sqrt(a2 + (1.0 - a2) * ndv * ndv));
+            spec += e * a2 / (3.14159265358979 * t * t) * g_l * g_v / (4.0 * ndv);
+        } else {
+            spec += e * pow(ndh, shininess);
+        }
     }
     vec3 matte = pow(texture(tex, uv).rgb * albedo_tint, vec3(gamma)) * diffuse;
     vec3 lit = matte + vec3(specular * spec);
@@ -232,7 +243,7 @@ class LitScene:
     biases: np.ndarray  # (L,) float32
     matrices: np.ndarray  # (K, 4, 4) float32 per shadow layer, row-major
     rows: np.ndarray  # (K, 4) float32 per shadow layer
-    materials: list[tuple[float, float]]  # (specular, shininess) per draw
+    materials: list[tuple[float, float, float]]  # (specular, shininess, roughness) per draw
 
 
 class LitProgram:
@@ -245,7 +256,8 @@ class LitProgram:
         self.shadow_program = program(_SHADOW_VERT, _SHADOW_FRAG)
         self.loc = {name: GL.glGetUniformLocation(self.program, name) for name in (
             "PV", "n_lights", "light_vec", "light_intensity", "light_layer", "light_bias",
-            "layer_pv", "layer_row", "ambient", "eye", "specular", "shininess", "double_sided",
+            "layer_pv", "layer_row", "ambient", "eye", "specular", "shininess", "roughness",
+            "double_sided",
             "mode", "gamma")}
         self.loc_shadow_pv = GL.glGetUniformLocation(self.shadow_program, "PV")
         self.loc_shadow_row = GL.glGetUniformLocation(self.shadow_program, "row")
@@ -290,9 +302,10 @@ class LitProgram:
     def set_material(self, lit: LitScene, draw: int, closed: bool) -> None:
         from OpenGL import GL
 
-        specular, shininess = lit.materials[draw]
+        specular, shininess, roughness = lit.materials[draw]
         GL.glUniform1f(self.loc["specular"], specular)
         GL.glUniform1f(self.loc["shininess"], shininess)
+        GL.glUniform1f(self.loc["roughness"], roughness)
         GL.glUniform1i(self.loc["double_sided"], 0 if closed else 1)
 
     def shadow_maps(self, meshes: Sequence[Mesh], vao_gt: int, count: int,

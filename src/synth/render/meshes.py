@@ -37,9 +37,10 @@ class Mesh:
     zmin: float
     zmax: float
     # lit scenes only (synth.render.lighting): the per-vertex colour the texture is multiplied
-    # by without the baked shade, and the object's Blinn-Phong (specular, shininess)
+    # by without the baked shade, and the object's (specular, shininess, GGX roughness or 0 for
+    # Blinn-Phong)
     tint: np.ndarray | None = None  # (n, 3) float32
-    material: tuple[float, float] = (0.0, 32.0)
+    material: tuple[float, float, float] = (0.0, 32.0, 0.0)
 
 
 def as_meshes(scene: Any) -> tuple[list[Mesh], tuple[float, float, float], dict]:
@@ -59,13 +60,15 @@ def as_meshes(scene: Any) -> tuple[list[Mesh], tuple[float, float, float], dict]
         light = (tuple(lt.direction), float(lt.intensity), float(lt.ambient))
         background = tuple(float(c) for c in scene.background)
         meta = {"scene": scene.name, "seed": scene.seed}
-        materials = [(o.material.specular, o.material.shininess) for o in scene.objects]
+        materials = [(o.material.specular, o.material.shininess,
+                      o.material.roughness if o.material.model == "ggx" else 0.0)
+                     for o in scene.objects]
     elif isinstance(scene, Sequence) and not isinstance(scene, (str, bytes)):
         meshes = list(scene)
         names = [str(m.metadata.get("name", f"mesh[{i}]")) if isinstance(m, trimesh.Trimesh) else ""
                  for i, m in enumerate(meshes)]
         light, background, meta = DEFAULT_LIGHT, (0.0, 0.0, 0.0), {"scene": "meshes", "seed": None}
-        materials = [(0.0, 32.0)] * len(meshes)
+        materials = [(0.0, 32.0, 0.0)] * len(meshes)
     else:
         raise TypeError(
             f"scene must be a scenes.SceneSpec or a sequence of trimesh.Trimesh, got "
