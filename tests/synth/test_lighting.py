@@ -6,12 +6,16 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from scenes import LampSpec, LightSpec, MaterialSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
+from scenes.strategies import lamp_specs, material_specs
 from stereoforge.errors import StereoforgeError
 from synth.pair import expose, render_pair
 from synth.render.lighting import HIGHLIGHT_LEVELS
 from synth.rig import StereoRig
+from synth.testing import preset_scenes
 
 RIG = StereoRig.default(96, 72, fx=80.0, baseline=0.2)
 WHITE = TextureSpec(kind="constant", mean=1.0, contrast=0.0)
@@ -204,3 +208,25 @@ def test_a_point_lamp_inside_the_scene_lights_it_by_the_inverse_square(renderer)
     # at the principal point: distance 1 m, head-on: linear 0.25
     x, y = int(RIG.cx), int(RIG.cy)
     assert abs(float(pair.left[y, x, 0]) - 255 * 0.25 ** (1 / 2.2)) <= 1.5
+
+
+@pytest.mark.gl
+@settings(max_examples=6)
+@given(base=preset_scenes(names=("boxes", "flying", "slanted_plane", "moebius")),
+       material=material_specs(), lamps=st.lists(lamp_specs(), max_size=2).map(tuple),
+       data=st.data())
+def test_any_materials_and_lamps_keep_the_ground_truth(renderer, base, material, lamps,
+                                                        data) -> None:
+    """A property: materials and lamps (any, even shadowed point lamps inside the scene) never
+    change a byte of the ground truth."""
+    lamps = tuple(dataclasses.replace(lamp, intensity=min(lamp.intensity, 10.0)) for lamp in lamps)
+    shiny = data.draw(st.lists(st.booleans(), min_size=len(base.objects),
+                               max_size=len(base.objects)))
+    objects = tuple(dataclasses.replace(o, material=material) if s else o
+                    for o, s in zip(base.objects, shiny))
+    lit = dataclasses.replace(base, objects=objects, lamps=lamps)
+    rig = StereoRig.default(48, 36)
+    a, b = render_pair(base, rig, renderer=renderer), render_pair(lit, rig, renderer=renderer)
+    for name in ("disp_left", "disp_right", "depth_left", "mask_left"):
+        assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+    assert (b.highlight_left is None) == (not lit.has_specular())
