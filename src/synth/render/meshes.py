@@ -139,7 +139,7 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
         name=name,
         vertices=vertices,
         faces=np.ascontiguousarray(f, dtype=np.uint32),
-        normals=np.ascontiguousarray(m.vertex_normals, dtype=np.float32),
+        normals=np.asarray(m.vertex_normals, dtype=np.float32),
         image=image,
         closed=not m.metadata.get("double_sided", True),
         zmin=float(v[:, 2].min()),
