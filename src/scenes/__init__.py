@@ -4,6 +4,7 @@ Pure numpy + trimesh (no OpenGL). A scene is data (:class:`SceneSpec`) in the le
 (OpenCV orientation, metres); :func:`build_meshes` turns it into textured world-space meshes.
 """
 
+from scenes.materials import LAMP_KINDS, LampSpec, MaterialSpec
 from scenes.presets import PRESETS, Preset, get_preset, list_presets
 from scenes.primitives import build_mesh, build_meshes, plane_equation
 from scenes.spec import (
@@ -29,6 +30,9 @@ __all__ = [
     "TextureSpec",
     "Pose",
     "LightSpec",
+    "MaterialSpec",
+    "LampSpec",
+    "LAMP_KINDS",
     "load_scene",
     "dump_scene",
     "loads_json",

@@ -6,8 +6,9 @@ A scene is data. Its world frame is the left camera's frame in OpenCV orientatio
 and sequences come back as tuples.
 
 On disk a scene is a table with the keys ``version`` (currently 1), ``name``, ``description``,
-``seed``, ``background``, ``light`` (a table) and ``objects`` (an array of tables, each with a
-``pose`` and a ``texture`` table). Missing keys take the dataclass defaults; unknown keys are an
+``seed``, ``background``, ``light`` (a table), ``objects`` (an array of tables, each with a
+``pose``, a ``texture`` and optionally a ``material`` table) and optionally ``lamps`` (an array of
+tables; see :mod:`scenes.materials`). Missing keys take the dataclass defaults; unknown keys are an
 error.
 
 One module on purpose: every dataclass of a scene sits beside the code that turns it into TOML/JSON
@@ -26,6 +27,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
+from scenes.materials import MAX_LAMPS, LampSpec, MaterialSpec
 from stereoforge.errors import SceneError, StereoforgeError
 from stereoforge.validation import (
     check_choice,
@@ -229,6 +231,9 @@ class ObjectSpec:
         terrain: cells along the longer side), in [3, 4096]; ignored by plane and box.
     seed : int
         Geometry seed (terrain relief), in [0, 2**63); ignored by the other kinds.
+    material : MaterialSpec
+        Specular reflectance (default matte; see :mod:`scenes.materials`). Written to a scene
+        file only when not matte.
 
     Examples
     --------
@@ -243,8 +248,10 @@ class ObjectSpec:
     name: str = ""
     segments: int = 64
     seed: int = 0
+    material: MaterialSpec = field(default_factory=MaterialSpec)
 
     def __post_init__(self) -> None:
+        check_type(self.material, "ObjectSpec.material", MaterialSpec)
         kind = check_choice(check_type(self.kind, "ObjectSpec.kind", str), "ObjectSpec.kind",
                             OBJECT_KINDS)
         check_type(self.pose, "ObjectSpec.pose", Pose)
@@ -324,6 +331,10 @@ class SceneSpec:
         Textures and terrain carry their own seeds.
     description : str
         Free text.
+    lamps : tuple of LampSpec
+        Lights added to ``light`` (at most ``MAX_LAMPS``; default none). A scene with lamps or a
+        specular material is rendered lit (:mod:`scenes.materials`). Written to a scene file
+        only when not empty.
 
     Examples
     --------
@@ -339,9 +350,16 @@ class SceneSpec:
     background: tuple[float, float, float] = (0.0, 0.0, 0.0)
     seed: int = 0
     description: str = ""
+    lamps: tuple[LampSpec, ...] = ()
 
     def __post_init__(self) -> None:
         check_type(self.name, "SceneSpec.name", str)
+        lamps = check_sequence(self.lamps, "SceneSpec.lamps", of="LampSpec",
+                               item=lambda lamp, name: check_type(lamp, name, LampSpec))
+        if len(lamps) > MAX_LAMPS:
+            raise fail("SceneSpec.lamps", f"at most {MAX_LAMPS} lamps", str(len(lamps)),
+                       fix="merge lamps or drop some")
+        _set(self, "lamps", lamps)
         check_type(self.description, "SceneSpec.description", str)
         objects = check_sequence(self.objects, "SceneSpec.objects", of="ObjectSpec",
                                  item=lambda obj, name: check_type(obj, name, ObjectSpec))
@@ -352,13 +370,28 @@ class SceneSpec:
         _set(self, "background", _vec(self.background, "SceneSpec.background", 3, lo=0.0, hi=1.0))
         _set(self, "seed", _seed(self.seed, "SceneSpec.seed"))
 
+    def is_lit(self) -> bool:
+        """True when the scene needs per-fragment lighting: a lamp or a specular material."""
+        return bool(self.lamps) or any(not o.material.is_matte() for o in self.objects)
+
+    def has_specular(self) -> bool:
+        """True when an object has a specular term (the pair gets highlight masks)."""
+        return any(not o.material.is_matte() for o in self.objects)
+
 
 # --------------------------------------------------------------------------- dict conversion
+#: Fields written only when they differ from their default, so that the scene files (and the
+#: ``scene.json`` of every pair) of scenes that do not use them keep their bytes.
+_WRITTEN_IF_SET = {(ObjectSpec, "material"): MaterialSpec(), (SceneSpec, "lamps"): ()}
+
+
 def _to_plain(value: Any) -> Any:
     if isinstance(value, tuple):
         return [_to_plain(v) for v in value]
     if hasattr(value, "__dataclass_fields__"):
-        return {f.name: _to_plain(getattr(value, f.name)) for f in fields(value)}
+        return {f.name: _to_plain(getattr(value, f.name)) for f in fields(value)
+                if (type(value), f.name) not in _WRITTEN_IF_SET
+                or getattr(value, f.name) != _WRITTEN_IF_SET[type(value), f.name]}
     return value
 
 
@@ -432,11 +465,19 @@ def scene_from_dict(data: dict[str, Any]) -> SceneSpec:
         kw["pose"] = _build(Pose, _take(kw.get("pose", {}), Pose, f"{where}.pose"), f"{where}.pose")
         kw["texture"] = _build(TextureSpec, _take(kw.get("texture", {}), TextureSpec,
                                                   f"{where}.texture"), f"{where}.texture")
+        if "material" in kw:
+            kw["material"] = _build(MaterialSpec, _take(kw["material"], MaterialSpec,
+                                                        f"{where}.material"), f"{where}.material")
         objects.append(_build(ObjectSpec, kw, where))
     top["objects"] = tuple(objects)
     if "light" in top:
         top["light"] = _build(LightSpec, _take(top["light"], LightSpec, "scene.light"),
                               "scene.light")
+    if "lamps" in top:
+        raw_lamps = check_type(top["lamps"], "scene.lamps", (list, tuple),
+                               expected="an array of tables")
+        top["lamps"] = tuple(_build(LampSpec, _take(raw, LampSpec, f"lamps[{i}]"), f"lamps[{i}]")
+                             for i, raw in enumerate(raw_lamps))
     return _build(SceneSpec, top, "scene")
 
 

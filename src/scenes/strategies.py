@@ -19,6 +19,7 @@ import math
 
 from hypothesis import strategies as st
 
+from scenes.materials import LAMP_KINDS, SPECULAR_MODELS, LampSpec, MaterialSpec
 from scenes.spec import (
     MAX_EXTENT,
     OBJECT_KINDS,
@@ -30,7 +31,8 @@ from scenes.spec import (
     TextureSpec,
 )
 
-__all__ = ["texture_specs", "poses", "sizes", "object_specs", "light_specs", "scene_specs"]
+__all__ = ["texture_specs", "poses", "sizes", "object_specs", "light_specs", "material_specs",
+           "lamp_specs", "scene_specs"]
 
 _finite = st.floats(allow_nan=False, allow_infinity=False)
 _unit = st.floats(min_value=0.0, max_value=1.0)
@@ -75,7 +77,23 @@ def object_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = tuple(OBJECT_KINDS
     return ObjectSpec(kind, draw(poses()), draw(sizes(kind)),
                       draw(textures if textures is not None else texture_specs()),
                       name=draw(st.text(max_size=12)),
-                      segments=draw(st.integers(min_value=3, max_value=4096)), seed=draw(_seed))
+                      segments=draw(st.integers(min_value=3, max_value=4096)), seed=draw(_seed),
+                      material=draw(st.one_of(st.just(MaterialSpec()), material_specs())))
+
+
+def material_specs() -> st.SearchStrategy[MaterialSpec]:
+    """:class:`MaterialSpec` values (matte ones included)."""
+    return st.builds(MaterialSpec, specular=st.floats(0.0, 16.0),
+                     shininess=st.floats(1.0, 10_000.0), model=st.sampled_from(SPECULAR_MODELS),
+                     roughness=st.floats(0.02, 1.0))
+
+
+def lamp_specs() -> st.SearchStrategy[LampSpec]:
+    """:class:`LampSpec` values of either kind."""
+    coord = st.floats(-1e6, 1e6)
+    return st.builds(LampSpec, kind=st.sampled_from(LAMP_KINDS),
+                     direction=_vec3(coord).filter(any), position=_vec3(coord),
+                     intensity=st.floats(0.0, 1e6), shadows=st.booleans())
 
 
 def light_specs() -> st.SearchStrategy[LightSpec]:
@@ -91,4 +109,5 @@ def scene_specs(*, max_objects: int = 4) -> st.SearchStrategy[SceneSpec]:
     return st.builds(SceneSpec, name=st.text(max_size=12),
                      objects=st.lists(object_specs(), min_size=1, max_size=max_objects).map(tuple),
                      light=light_specs(), background=_vec3(_unit), seed=_seed,
-                     description=st.text(max_size=40))
+                     description=st.text(max_size=40),
+                     lamps=st.lists(lamp_specs(), max_size=2).map(tuple))

@@ -282,7 +282,9 @@ def write_pair(
         The fully resolved scene, stored in ``scene.json`` with the rig and seed.
     seed : int
     fmt : {"middlebury", "kitti"}
-        ``middlebury``: a MiddEval3 scene folder in ``out``; ``kitti``: frame ``index`` under
+        ``middlebury``: a MiddEval3 scene folder in ``out`` (with the pair's exposure and lighting
+        variants as ``im1E.png``/``im1L.png`` and its highlight masks as ``mask0spec.png``/
+        ``mask1spec.png`` when it has them); ``kitti``: frame ``index`` under
         ``out/training/`` (with ``obj_map/`` from :func:`foreground_map` and
         ``calib_cam_to_cam/``), ``scene.json`` and ``preview.png`` in ``out``. A pair of a rig
         with camera errors (``pair.flow_left`` set) also gets ``flow0.flo`` and is refused in
@@ -318,6 +320,10 @@ def write_pair(
                 mask_left=pair.mask_left,
                 calib=calib_for(pair),
                 fsync=fsync,
+                right_exposure=pair.right_exposure,
+                right_lighting=pair.right_lighting,
+                highlight_left=pair.highlight_left,
+                highlight_right=pair.highlight_right,
             )
         )
         if flow is not None:  # the real cameras' exact correspondence (docs/formats.md)

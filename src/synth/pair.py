@@ -8,6 +8,7 @@ the right view or projecting outside it, 0 no ground truth.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.metadata
 from dataclasses import dataclass
@@ -17,6 +18,9 @@ from typing import Any, Mapping
 import numpy as np
 from numba import njit
 
+from stereoforge.validation import check_real, check_type
+from synth.render.lighting import HIGHLIGHT_LEVELS
+from synth.render.meshes import DISPLAY_GAMMA
 from synth.imperfect import real_views
 from synth.render.renderer import Renderer
 from synth.rig import StereoRig
@@ -24,6 +28,7 @@ from synth.rig import StereoRig
 __all__ = [
     "StereoPair",
     "render_pair",
+    "expose",
     "occlusion_mask",
     "MASK_VISIBLE",
     "MASK_OCCLUDED",
@@ -58,7 +63,17 @@ class StereoPair:
     rig : StereoRig
     meta : Mapping
         ``scene``, ``seed``, ``backend``, ``renderer`` (GL_RENDERER),
-        ``gl_version``, ``mask_tolerances`` and package ``versions``.
+        ``gl_version``, ``mask_tolerances`` and package ``versions``; for lit scenes
+        ``specular`` (whether an object is specular), with the variants ``exposure_variant``
+        (the factor) and ``lighting_variant`` (the light and lamps of ``im1L``).
+    highlight_left, highlight_right : (H, W) uint8 array or None
+        Scenes with a specular material and an ideal rig (no camera ``errors``) only: 255 where the specular term raises the displayed
+        value of some channel at the pixel centre by at least
+        :data:`synth.render.lighting.HIGHLIGHT_LEVELS` grey levels, else 0.
+    right_exposure : (H, W, 3) uint8 array or None
+        The right view at another exposure (Middlebury's ``im1E``; see :func:`expose`).
+    right_lighting : (H, W, 3) uint8 array or None
+        The right view rendered again under another light set (Middlebury's ``im1L``).
     flow_left : (H, W, 2) float32 array or None
         Only for a rig with camera ``errors``: the exact correspondence of the real images,
         left ``(x, y)`` -> right ``(x + u, y + v)``; NaN where no surface, occluded or outside
@@ -75,6 +90,10 @@ class StereoPair:
     rig: StereoRig
     meta: Mapping[str, Any]
     flow_left: np.ndarray | None = None
+    highlight_left: np.ndarray | None = None
+    highlight_right: np.ndarray | None = None
+    right_exposure: np.ndarray | None = None
+    right_lighting: np.ndarray | None = None
 
 
 def occlusion_mask(
@@ -172,12 +191,39 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def expose(image: np.ndarray, factor: float) -> np.ndarray:
+    """An 8-bit display-encoded image at another exposure, changed in linear light.
+
+    ``out = round(255 * min(1, (image / 255) ** g * factor) ** (1 / g))`` with the display
+    gamma ``g`` = 2.2 of the renderer: the exposure time (or gain) scales linear radiance by
+    ``factor`` before the display gamma; saturated values clip at 255. ``factor`` = 2 is one
+    stop brighter.
+
+    Examples
+    --------
+    >>> expose(np.array([[0, 128, 255]], np.uint8), 0.5).tolist()
+    [[0, 93, 186]]
+    """
+    factor = check_real(factor, "exposure", lo=0.0, lo_open=True, hi=16.0,
+                        fix="a linear factor such as 0.5 (one stop darker)")
+    linear = (np.asarray(image, dtype=np.float64) / 255.0) ** DISPLAY_GAMMA * factor
+    return np.rint(255.0 * np.minimum(linear, 1.0) ** (1.0 / DISPLAY_GAMMA)).astype(np.uint8)
+
+
+def _highlight(view: Any) -> np.ndarray | None:
+    if view.highlight is None:
+        return None
+    return _readonly(np.where(view.highlight >= HIGHLIGHT_LEVELS, 255, 0).astype(np.uint8))
+
+
 def render_pair(
     scene: Any,
     rig: StereoRig,
     *,
     renderer: Renderer | None = None,
     backend: str = "auto",
+    exposure: float | None = None,
+    lighting: Any = None,
 ) -> StereoPair:
     """Render the left and right views of ``scene`` with exact ground truth.
 
@@ -191,6 +237,12 @@ def render_pair(
         renderer is opened (with ``backend``) for this call and closed after.
     backend : {"auto", "egl", "osmesa"}
         Only used when ``renderer`` is None.
+    exposure : float, optional
+        Also make ``right_exposure``: the right view with its linear radiance scaled by this
+        factor (:func:`expose`).
+    lighting : scenes.SceneSpec, optional
+        Also render ``right_lighting``: the right view of this scene, which must have the same
+        objects as ``scene`` (typically ``dataclasses.replace(scene, light=..., lamps=...)``).
 
     Returns
     -------
@@ -206,9 +258,17 @@ def render_pair(
     """
     if not isinstance(rig, StereoRig):
         raise TypeError(f"rig must be a StereoRig, got {type(rig).__name__}")
+    if lighting is not None:
+        check_type(lighting, "lighting", type(scene), expected="a SceneSpec like the scene's")
+        if lighting.objects != scene.objects:
+            raise ValueError("lighting: expected the scene with only its lights changed, got "
+                             "other objects; use dataclasses.replace(scene, light=..., lamps=...)")
+    if lighting is not None and rig.errors is not None:
+        raise ValueError("lighting: the im1L variant is rendered by the ideal right camera; it "
+                         "cannot be combined with camera errors (rig.errors); drop one of them")
     if renderer is None:
         with Renderer(rig.width, rig.height, backend=backend) as own:
-            return render_pair(scene, rig, renderer=own)
+            return render_pair(scene, rig, renderer=own, exposure=exposure, lighting=lighting)
     if not isinstance(renderer, Renderer):
         raise TypeError(f"renderer must be a synth.render.Renderer, got {type(renderer).__name__}")
     ideal = rig.ideal
@@ -217,6 +277,9 @@ def render_pair(
         right = renderer.render_view(scene, ideal, eye="right")
         real = None if rig.errors is None else real_views(
             scene, rig, renderer=renderer, ideal=(left.color, right.color))
+    relit = None
+    if lighting is not None:
+        relit = _readonly(renderer.render_view(lighting, ideal, eye="right").color)
     d_left = rig.disparity_from_depth(left.depth)
     d_right = rig.disparity_from_depth(right.depth)
     mask = occlusion_mask(d_left, d_right)
@@ -230,6 +293,11 @@ def render_pair(
     }
     if real is not None:
         meta["camera_errors"] = rig.errors.to_dict()
+    if exposure is not None:  # recorded only when asked for: other pairs keep their scene.json
+        meta["exposure_variant"] = float(exposure)
+    if lighting is not None:
+        meta["lighting_variant"] = {"light": dataclasses.asdict(lighting.light),
+                                    "lamps": [dataclasses.asdict(lamp) for lamp in lighting.lamps]}
     return StereoPair(
         left=_readonly(left.color if real is None else real.left),
         right=_readonly(right.color if real is None else real.right),
@@ -240,4 +308,10 @@ def render_pair(
         rig=rig,
         meta=MappingProxyType(meta),
         flow_left=None if real is None else _readonly(real.flow),
+        # the highlight masks are the ideal cameras': none for a rig with camera errors
+        highlight_left=_highlight(left) if real is None else None,
+        highlight_right=_highlight(right) if real is None else None,
+        right_exposure=None if exposure is None else _readonly(
+            expose(right.color if real is None else real.right, exposure)),
+        right_lighting=relit,
     )

@@ -163,3 +163,32 @@ def test_calib_isint_defaults_to_0_and_gt_uses_the_middeval3_names(tmp_path):
     assert not (tmp_path / "disp0.pfm").exists() and (tmp_path / "disp0GT.pfm").is_file()
     for name in ("im1E.png", "im1L.png"):
         assert (tmp_path / name).read_bytes() == (tmp_path / "im1.png").read_bytes()
+
+
+def test_middlebury_variants_and_highlight_masks_replace_the_copies(tmp_path):
+    left, right, disp, mask, disp_right = _frame()
+    exposed, relit = right // 2, 255 - right
+    spec = np.array([[0, 255, 0, 0], [0, 0, 0, 0]], np.uint8)
+    files = write_middlebury(tmp_path, left=left, right=right, disp_left=disp, disp_right=None,
+                             mask_left=mask, calib=CALIB, right_exposure=exposed,
+                             right_lighting=relit, highlight_left=spec, highlight_right=spec[:, ::-1])
+    assert [f.name for f in files] == ["im0.png", "im1.png", "im1E.png", "im1L.png", "disp0GT.pfm",
+                                       "mask0nocc.png", "mask0spec.png", "mask1spec.png",
+                                       "calib.txt"]
+    read = lambda name: cv2.imread(str(tmp_path / name), cv2.IMREAD_UNCHANGED)  # noqa: E731
+    assert np.array_equal(read("im1E.png")[..., ::-1], exposed)
+    assert np.array_equal(read("im1L.png")[..., ::-1], relit)
+    assert np.array_equal(read("mask1spec.png"), spec[:, ::-1])
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    ({"right_exposure": np.zeros((2, 3, 3), np.uint8)}, r"right_exposure: expected the shape"),
+    ({"right_lighting": np.zeros((2, 4, 3), np.float32)}, r"uint8"),
+    ({"highlight_left": np.zeros((2, 4), np.uint8)}, r"both or neither"),
+])
+def test_middlebury_bad_variants_are_refused_before_writing(tmp_path, kw, match):
+    left, right, disp, mask, _ = _frame()
+    with pytest.raises((ValueError, TypeError), match=match):
+        write_middlebury(tmp_path / "s", left=left, right=right, disp_left=disp, disp_right=None,
+                         mask_left=mask, calib=CALIB, **kw)
+    assert not (tmp_path / "s").exists()

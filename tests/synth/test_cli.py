@@ -213,3 +213,22 @@ def test_eval_benchmark_labels_each_convention(tmp_path):
     assert report["eth3d all"]["bad_2"] == pytest.approx(100 / 72)
     table = _run("eval", tmp_path / "est.pfm", tmp_path / "gt.pfm", "--benchmark", "kitti")
     assert table.exit_code == 0 and table.output.startswith("kitti occ  (KITTI 2015 devkit")
+
+
+@pytest.mark.gl
+def test_render_writes_the_exposure_and_lighting_variants(tmp_path, renderer):
+    out = tmp_path / "v"
+    result = _run("render", "boxes", "--out", out, "--width", 64, "--height", 48,
+                  "--exposure-variant", 0.5, "--lighting-variant", 40)
+    assert result.exit_code == 0, result.output
+    for name in ("im1E.png", "im1L.png"):
+        assert (out / name).read_bytes() != (out / "im1.png").read_bytes()
+    render = json.loads((out / "scene.json").read_text())["render"]
+    assert render["exposure_variant"] == 0.5 and "light" in render["lighting_variant"]
+    for flag, value, needle in (("--exposure-variant", 0, "exposure: expected a finite number"),
+                                ("--lighting-variant", 200, "lighting variant (degrees)")):
+        bad = _run("render", "boxes", "--out", tmp_path / "bad", "--width", 64, "--height", 48,
+                   flag, value)
+        assert bad.exit_code != 0 and needle in bad.output
+        assert bad.output.count("Error:") == 1 and "Traceback" not in bad.output
+        assert not (tmp_path / "bad").exists()

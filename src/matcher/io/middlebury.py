@@ -7,11 +7,14 @@ Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``)::
 
     im0.png, im1.png     left and right images (8-bit, RGB or grey)
     im1E.png, im1L.png   the right image under other exposure / lighting in real Middlebury 2014
-                         scenes; written as byte copies of im1.png (RAFT-Stereo lists them)
+                         scenes; written as given, else as byte copies of im1.png (RAFT-Stereo
+                         lists them)
     disp0GT.pfm          left ground-truth disparity, float32, inf = no ground truth (MiddEval3's
                          name, what the SDK's runeval and RAFT-Stereo's Middlebury loader read)
     disp1GT.pfm          right ground truth
     mask0nocc.png        occlusion mask of the left view: 255 visible, 128 occluded, 0 no GT
+    mask0spec.png        ours, written when given: specular highlights of the left view (255)
+    mask1spec.png        ... and of the right view
     calib.txt            cam0, cam1, doffs, baseline (mm), width, height, ndisp, isint, vmin, vmax
 
 Scenes written before the MiddEval3 names (``disp0.pfm``, ``disp1.pfm``) are still read.
@@ -205,6 +208,10 @@ def write_middlebury(
     mask_left: np.ndarray,
     calib: Mapping[str, object],
     fsync: bool = True,
+    right_exposure: np.ndarray | None = None,
+    right_lighting: np.ndarray | None = None,
+    highlight_left: np.ndarray | None = None,
+    highlight_right: np.ndarray | None = None,
 ) -> list[Path]:
     """Write one stereo pair as a MiddEval3 / Middlebury 2014 scene folder.
 
@@ -233,12 +240,18 @@ def write_middlebury(
         given); ``isint`` defaults to 0 (float disparities); ``vmin``/``vmax`` default to the floor/ceil of the finite ``disp_left`` range.
     fsync : bool, default True
         ``fsync`` each file before renaming it into place.
+    right_exposure, right_lighting : uint8 array like ``right``, optional
+        ``im1E.png`` (the right view at another exposure) and ``im1L.png`` (under other
+        lighting); each absent one is written as a byte copy of ``im1.png``.
+    highlight_left, highlight_right : (H, W) uint8 array, optional
+        Specular-highlight masks (255 highlight, 0 not), written as ``mask0spec.png`` and
+        ``mask1spec.png`` (both or neither).
 
     Returns
     -------
     list of pathlib.Path
         The files written, in the order ``im0.png, im1.png, im1E.png, im1L.png, disp0GT.pfm,
-        [disp1GT.pfm,] mask0nocc.png, calib.txt``.
+        [disp1GT.pfm,] mask0nocc.png, [mask0spec.png, mask1spec.png,] calib.txt``.
 
     Examples
     --------
@@ -263,19 +276,33 @@ def write_middlebury(
     disp0 = check_ground_truth(disp_left, "disp_left", shape=shape, mask=mask_left)
     disp1 = None if disp_right is None else check_ground_truth(disp_right, "disp_right", shape=shape)
     full_calib = _complete_calib(calib, shape, disp0)
+    for name, image in (("right_exposure", right_exposure), ("right_lighting", right_lighting)):
+        if image is not None:
+            if getattr(image, "shape", None) != right.shape:
+                raise ValueError(f"{name}: expected the shape of the right image {right.shape}, "
+                                 f"got {getattr(image, 'shape', type(image).__name__)}")
+            check_stereo_images(right, image)  # uint8
+    if (highlight_left is None) != (highlight_right is None):
+        raise ValueError("highlight_left and highlight_right: expected both or neither, got one")
+    highlights = [] if highlight_left is None else [
+        check_occlusion_mask(m, name, shape=shape)
+        for name, m in (("highlight_left", highlight_left), ("highlight_right", highlight_right))]
 
     out = Path(out_dir)
     im1 = encode_png(right)
     files: dict[Path, bytes] = {
         out / "im0.png": encode_png(left),
         out / "im1.png": im1,
-        out / "im1E.png": im1,  # no exposure / lighting variant rendered: documented copies
-        out / "im1L.png": im1,
+        # a variant not rendered: a documented copy of im1
+        out / "im1E.png": im1 if right_exposure is None else encode_png(right_exposure),
+        out / "im1L.png": im1 if right_lighting is None else encode_png(right_lighting),
         out / "disp0GT.pfm": encode_pfm(disp0),
     }
     if disp1 is not None:
         files[out / "disp1GT.pfm"] = encode_pfm(disp1)
     files[out / "mask0nocc.png"] = encode_png(mask_left)
+    for name, m in zip(("mask0spec.png", "mask1spec.png"), highlights):
+        files[out / name] = encode_png(m)
     files[out / "calib.txt"] = format_calib(full_calib).encode("ascii")
     out.mkdir(parents=True, exist_ok=True)
     return write_all_atomic(files, fsync=fsync)

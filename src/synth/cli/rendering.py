@@ -42,8 +42,14 @@ def presets() -> None:
 @click.option("--from-manifest", "from_manifest", nargs=2, default=None,
               type=(click.Path(file_okay=False, path_type=Path), int), metavar="DIR INDEX",
               help="Re-render sample INDEX of the dataset in DIR alone (same bytes), instead of SCENE.")
+@click.option("--exposure-variant", "exposure", default=None, type=float, metavar="FACTOR",
+              help="Write im1E.png: the right view with its linear radiance times FACTOR "
+                   "(Middlebury layout).")
+@click.option("--lighting-variant", "relight", default=None, type=float, metavar="DEGREES",
+              help="Write im1L.png: the right view rendered again with every light direction "
+                   "turned by DEGREES (Middlebury layout).")
 def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite,
-           from_manifest) -> None:
+           from_manifest, exposure, relight) -> None:
     """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
     from synth import StereoRig, render_pair
     from synth.export import resolve_scene, save_pair
@@ -61,7 +67,17 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
     spec, seed = resolve_scene(scene, seed=seed)
     rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
-    pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
+    lighting = None
+    if relight is not None:
+        import dataclasses
+
+        import numpy as np
+        from scenes.materials import turn_lights
+
+        light, lamps = turn_lights(spec, relight, np.random.default_rng(seed))
+        lighting = dataclasses.replace(spec, light=light, lamps=lamps)
+    # validates before anything is written
+    pair = render_pair(spec, rig, backend=backend, exposure=exposure, lighting=lighting)
     written = save_pair(pair, out, scene=spec, seed=seed, fmt=fmt, overwrite=overwrite)
     click.echo(f"wrote {len(written)} files to {out}")
 

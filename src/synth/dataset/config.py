@@ -27,6 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from scenes import PRESETS
+from scenes.materials import MAX_LAMPS, SPECULAR_MODELS
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
 from stereoforge.validation import check_keys, describe
@@ -117,6 +118,25 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "occluder_depth": Key("float", 1.5, lo=0.0, lo_open=True,
                               doc="occluder centre depth, metres"),
         "occluder_kind": Key("str", "box", choices=_OCCLUDER_KINDS, doc="occluder shape"),
+        # materials and light (all unset: matte scenes under the preset's light, as before)
+        "specular_fraction": Key("float", None, lo=0.0, hi=1.0,
+                                 doc="chance of each object to get a specular material"),
+        "specular": Key("float", None, lo=0.0, hi=16.0,
+                        doc="specular strength of a specular object, drawn per object"),
+        "shininess": Key("float", None, lo=1.0, hi=10_000.0,
+                         doc="Blinn-Phong exponent of a specular object, drawn per object"),
+        "specular_model": Key("str", None, choices=SPECULAR_MODELS,
+                              doc="specular lobe of a specular object, drawn per object"),
+        "roughness": Key("float", None, lo=0.02, hi=1.0,
+                         doc="GGX roughness of a specular object, drawn per object"),
+        "lamps": Key("int", None, lo=0, hi=MAX_LAMPS, doc="number of lamps added"),
+        "lamp_intensity": Key("float", None, lo=0.0, hi=100.0,
+                              doc="irradiance of each lamp at the scene centre, drawn per lamp"),
+        "lamp_shadows": Key("bool", None, doc="lamps cast shadows (drawn per lamp)"),
+        "exposure_variant": Key("float", None, lo=0.0, lo_open=True, hi=16.0,
+                                doc="im1E: linear exposure factor of the right view"),
+        "lighting_variant": Key("float", None, lo=0.0, hi=180.0,
+                                doc="im1L: degrees the light directions turn for the right view"),
     },
     "photometric": {
         "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,

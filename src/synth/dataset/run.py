@@ -59,7 +59,14 @@ from synth.export import FORMATS, prepare_output_dir, write_pair
 from synth.formats import KITTI_ROOT
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
-from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
+from synth.dataset.sampling import (
+    STREAM_EXPOSURE_NOISE,
+    STREAM_LIGHTING_NOISE,
+    draw_sample,
+    effective_frequency_px,
+    sample_seed,
+    stream,
+)
 from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density
 
 __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_sample", "run_dataset",
@@ -144,16 +151,26 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
         search = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer)
         scene = search.scene
     lap("search")
-    pair = render_pair(scene, config.rig, renderer=renderer)
+    lighting = None
+    if draw.relight is not None:
+        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
+    pair = render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
+                       lighting=lighting)
     lap("render")
     out = apply_photometric(pair.left, pair.right, draw.photometric,
                             rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
+    variants = {}  # the right-view variants under the same sensor model, their own noise
+    for name, noise in (("right_exposure", STREAM_EXPOSURE_NOISE),
+                        ("right_lighting", STREAM_LIGHTING_NOISE)):
+        if getattr(pair, name) is not None:
+            variants[name] = apply_photometric(pair.left, getattr(pair, name), draw.photometric,
+                                               rng=stream(draw.seed, noise)).right
     lap("photometric")
     if search is not None and np.array_equal(search.left, pair.left):
         rho = search.edge_density  # the search measured this very image: skip a second Canny
     else:
         rho = edge_density(pair.left)
-    degraded = dataclasses.replace(pair, left=out.left, right=out.right)
+    degraded = dataclasses.replace(pair, left=out.left, right=out.right, **variants)
     finite = np.isfinite(pair.disp_left)
     has_finite = bool(finite.any())
     mask_size = pair.mask_left.size

@@ -4,25 +4,43 @@ Sample ``i`` of a dataset with seed ``s`` has the seed
 ``sample_seed(s, i) = SeedSequence(s, spawn_key=(i,)).generate_state(1, uint64)[0] >> 1``
 (an int in ``[0, 2**63)``), and everything about the sample derives from that one integer through
 independent streams ``SeedSequence(sample_seed, spawn_key=(k,))``: ``k = 0`` the parameter draws,
-``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise. Nothing depends on
+``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise, ``4`` the materials,
+lamps and relighting, ``5``/``6`` the photometric noise of ``im1E``/``im1L``. Nothing depends on
 which worker renders the sample, nor when.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
-from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec, get_preset
+from scenes import (
+    LampSpec,
+    LightSpec,
+    MaterialSpec,
+    ObjectSpec,
+    Pose,
+    SceneSpec,
+    TextureSpec,
+    get_preset,
+)
+from scenes.materials import turn_lights
 from synth.dataset.config import DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
 
 __all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px"]
 
-_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC = range(4)
+(_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC, _STREAM_LIGHT,
+ STREAM_EXPOSURE_NOISE, STREAM_LIGHTING_NOISE) = range(7)
+#: [scene] keys drawn per object or per lamp from the light stream, not once per sample.
+_PER_ITEM = ("specular", "shininess", "specular_model", "roughness", "lamp_intensity",
+             "lamp_shadows")
+_PER_ITEM_DEFAULTS = {"specular": 0.5, "shininess": 32.0, "specular_model": "blinn-phong",
+                      "roughness": 0.3, "lamp_intensity": 0.5, "lamp_shadows": True}
 #: Occluder texture frequency (cycles per pixel) when the config sets none (as the presets: 8 px).
 _DEFAULT_OCCLUDER_FREQUENCY_PX = 0.125
 
@@ -69,6 +87,10 @@ class SampleDraw:
     edge_density : float or None
         Target edge density of the closed-loop search, if the config asks for one.
     photometric : PhotometricParams
+    exposure : float or None
+        ``exposure_variant``: the linear exposure factor of ``im1E``, if asked for.
+    relight : (LightSpec, tuple of LampSpec) or None
+        ``lighting_variant``: the light and lamps ``im1L`` is rendered under, if asked for.
     """
 
     index: int
@@ -77,6 +99,8 @@ class SampleDraw:
     scene: SceneSpec
     edge_density: float | None
     photometric: PhotometricParams
+    exposure: float | None = None
+    relight: tuple[LightSpec, tuple[LampSpec, ...]] | None = None
 
 
 def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Generator,
@@ -104,6 +128,50 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
     return out
 
 
+def _item(config: DatasetConfig, key: str, rng: np.random.Generator) -> Any:
+    dist = config.scene.get(key)
+    return _PER_ITEM_DEFAULTS[key] if dist is None else dist.sample(rng)
+
+
+def _materials_and_lamps(scene: SceneSpec, draw: Mapping[str, Any], config: DatasetConfig,
+                         rng: np.random.Generator) -> tuple[SceneSpec, dict[str, Any]]:
+    """Specular materials per object and lamps per the [scene] keys, and how many objects
+    became specular (the materials and lamps themselves are in the sample's scene.json)."""
+    drawn: dict[str, Any] = {}
+    fraction = draw.get("specular_fraction")
+    if fraction:
+        objects = []
+        for obj in scene.objects:
+            if rng.random() < fraction:
+                material = MaterialSpec(float(_item(config, "specular", rng)),
+                                        float(_item(config, "shininess", rng)),
+                                        str(_item(config, "specular_model", rng)),
+                                        float(_item(config, "roughness", rng)))
+                obj = dataclasses.replace(obj, material=material)
+            objects.append(obj)
+        scene = dataclasses.replace(scene, objects=tuple(objects))
+        drawn["specular_objects"] = sum(not o.material.is_matte() for o in objects)
+    lamps = []
+    z = float(np.median([o.pose.translation[2] for o in scene.objects]))
+    centre = np.array([0.0, 0.0, z])
+    for _ in range(int(draw.get("lamps") or 0)):
+        intensity, shadows = float(_item(config, "lamp_intensity", rng)), bool(
+            _item(config, "lamp_shadows", rng))
+        if rng.random() < 0.5:  # from above the rig, toward the scene
+            direction = (float(rng.uniform(-0.8, 0.8)), float(rng.uniform(0.2, 1.0)), 1.0)
+            lamps.append(LampSpec("directional", direction=direction, intensity=intensity,
+                                  shadows=shadows))
+        else:  # above and around the rig, irradiance `intensity` at the scene centre
+            pos = np.array([rng.uniform(-0.5, 0.5), rng.uniform(-0.8, -0.3),
+                            rng.uniform(0.0, 0.5)]) * z
+            lamps.append(LampSpec("point", position=tuple(float(c) for c in pos),
+                                  intensity=intensity * float(np.sum((pos - centre) ** 2)),
+                                  shadows=shadows))
+    if lamps:
+        scene = dataclasses.replace(scene, lamps=tuple(lamps))
+    return scene, drawn
+
+
 def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """Draw sample ``index``'s parameters and build its scene.
 
@@ -120,7 +188,7 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """
     seed = sample_seed(config.seed, index)
     rng = stream(seed, _STREAM_PARAMS)
-    scene_draw = {k: d.sample(rng) for k, d in config.scene.items()}
+    scene_draw = {k: d.sample(rng) for k, d in config.scene.items() if k not in _PER_ITEM}
     phot_draw = {k: d.sample(rng) for k, d in config.photometric.items()}
     preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
     scene = get_preset(str(scene_draw["base"]), seed=preset_seed)
@@ -132,12 +200,19 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
                           description=scene.description)
     scene = retexture(scene, fx=config.rig.fx, frequency_px=scene_draw.get("frequency_px"),
                       contrast=scene_draw.get("contrast"), kind=kind)
+    light_rng = stream(seed, _STREAM_LIGHT)
+    scene, per_item = _materials_and_lamps(scene, scene_draw, config, light_rng)
+    relight = None
+    if scene_draw.get("lighting_variant") is not None:
+        relight = turn_lights(scene, float(scene_draw["lighting_variant"]), light_rng)
     params = {f"scene.{k}": v for k, v in scene_draw.items()}
+    params.update({f"scene.{k}": v for k, v in per_item.items()})
     params.update({f"photometric.{k}": v for k, v in phot_draw.items()})
     params["scene.preset_seed"] = preset_seed
     return SampleDraw(index=int(index), seed=seed, params=params, scene=scene,
                       edge_density=scene_draw.get("edge_density"),
-                      photometric=PhotometricParams.from_mapping(phot_draw))
+                      photometric=PhotometricParams.from_mapping(phot_draw),
+                      exposure=scene_draw.get("exposure_variant"), relight=relight)
 
 
 def effective_frequency_px(scene: SceneSpec, *, fx: float) -> float | None:

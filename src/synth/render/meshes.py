@@ -1,8 +1,8 @@
 """Scenes and mesh lists turned into what :mod:`synth.render.renderer` uploads (no GL here).
 
 Each mesh becomes interleaved float32 vertices (position, texture coordinate, baked
-view-independent Lambert shade), uint32 faces, its texture pixels and whether its back faces
-may be culled; depth-range checks against the rig happen before anything is drawn.
+view-independent Lambert shade), uint32 faces, world-space vertex normals, its texture pixels and
+whether its back faces may be culled (and, for lit scenes, its unshaded tint and material); depth-range checks against the rig happen before anything is drawn.
 """
 
 from __future__ import annotations
@@ -31,14 +31,24 @@ class Mesh:
     name: str
     vertices: np.ndarray  # (n, 8) float32: world position, texcoord (s, t), shade (r, g, b)
     faces: np.ndarray  # (m, 3) uint32
+    normals: np.ndarray  # (n, 3) float32 world-space unit vertex normals
     image: np.ndarray | None  # (h, w, 3 or 4) uint8 RGB(A), row 0 at t = 0
     closed: bool  # closed surface wound counter-clockwise seen from outside: cull back faces
     zmin: float
     zmax: float
+    # lit scenes only (synth.render.lighting): the per-vertex colour the texture is multiplied
+    # by without the baked shade, and the object's (specular, shininess, GGX roughness or 0 for
+    # Blinn-Phong)
+    tint: np.ndarray | None = None  # (n, 3) float32
+    material: tuple[float, float, float] = (0.0, 32.0, 0.0)
 
 
 def as_meshes(scene: Any) -> tuple[list[Mesh], tuple[float, float, float], dict]:
-    """SceneSpec or mesh list -> shaded meshes, background colour, metadata."""
+    """SceneSpec or mesh list -> shaded meshes, background colour, metadata.
+
+    The meshes of a lit SceneSpec (``scene.is_lit()``) carry their object's material; bare mesh
+    lists are matte.
+    """
     import trimesh
 
     if hasattr(scene, "objects") and hasattr(scene, "light"):
@@ -50,11 +60,15 @@ def as_meshes(scene: Any) -> tuple[list[Mesh], tuple[float, float, float], dict]
         light = (tuple(lt.direction), float(lt.intensity), float(lt.ambient))
         background = tuple(float(c) for c in scene.background)
         meta = {"scene": scene.name, "seed": scene.seed}
+        materials = [(o.material.specular, o.material.shininess,
+                      o.material.roughness if o.material.model == "ggx" else 0.0)
+                     for o in scene.objects]
     elif isinstance(scene, Sequence) and not isinstance(scene, (str, bytes)):
         meshes = list(scene)
         names = [str(m.metadata.get("name", f"mesh[{i}]")) if isinstance(m, trimesh.Trimesh) else ""
                  for i, m in enumerate(meshes)]
         light, background, meta = DEFAULT_LIGHT, (0.0, 0.0, 0.0), {"scene": "meshes", "seed": None}
+        materials = [(0.0, 32.0, 0.0)] * len(meshes)
     else:
         raise TypeError(
             f"scene must be a scenes.SceneSpec or a sequence of trimesh.Trimesh, got "
@@ -69,10 +83,12 @@ def as_meshes(scene: Any) -> tuple[list[Mesh], tuple[float, float, float], dict]
     if lx.shape != (3,) or not np.all(np.isfinite(lx)) or not np.any(lx):
         raise ValueError(f"light direction must be a finite non-zero 3-vector, got {light[0]}")
     to_light = -lx / np.linalg.norm(lx)
-    for i, (m, name) in enumerate(zip(meshes, names)):
+    for i, (m, name, material) in enumerate(zip(meshes, names, materials)):
         if not isinstance(m, trimesh.Trimesh):
             raise TypeError(f"mesh {i} must be a trimesh.Trimesh, got {type(m).__name__}")
-        out.append(prepare_mesh(m, name, to_light, light[1], light[2]))
+        mesh = prepare_mesh(m, name, to_light, light[1], light[2])
+        mesh.material = material
+        out.append(mesh)
     return out, background, meta
 
 
@@ -95,6 +111,7 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
     # Textures hold display-encoded values: scale them by the encoded shading factor.
     mult = np.clip(shade, 0.0, None) ** (1.0 / DISPLAY_GAMMA)
     color = np.repeat(mult[:, None], 3, axis=1)
+    tint = np.ones((len(v), 3))
     visual = m.visual
     uv = image = None
     if getattr(visual, "kind", None) == "texture":
@@ -107,8 +124,10 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
             image = None
             main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)
             color *= main[:3] / 255.0
+            tint *= main[:3] / 255.0
     elif getattr(visual, "kind", None) in ("vertex", "face"):
         color *= np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
+        tint *= np.asarray(visual.vertex_colors, dtype=np.float64)[:, :3] / 255.0
     vertices = np.zeros((len(v), 8), dtype=np.float32)
     vertices[:, :3] = v
     if uv is not None:
@@ -120,10 +139,12 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
         name=name,
         vertices=vertices,
         faces=np.ascontiguousarray(f, dtype=np.uint32),
+        normals=np.asarray(m.vertex_normals, dtype=np.float32),
         image=image,
         closed=not m.metadata.get("double_sided", True),
         zmin=float(v[:, 2].min()),
         zmax=float(v[:, 2].max()),
+        tint=tint.astype(np.float32),
     )
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ctypes
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -184,6 +185,7 @@ class GLScene:
     closed: int  # indices of the closed meshes, which come first (drawn with back-face culling)
     count: int  # indices of the whole scene
     meta: dict = field(default_factory=dict)
+    lit: Any = None  # synth.render.lighting.LitScene of a lit scene, else None (flat program)
 
 
 class Passes:
@@ -212,6 +214,7 @@ class Passes:
         # untextured meshes sample a white texture: colour = shade exactly (3 x 3: llvmpipe
         # compiles other shader variants for power-of-two textures; scenes avoid them too)
         self.white = self._texture(np.full((3, 3, 3), 255, dtype=np.uint8))
+        self.lit_program: Any = None  # compiled at the first lit scene (synth.render.lighting)
         self.fbs: list[tuple[int, list[int]]] = []
         self.resize(width, height)
 
@@ -238,6 +241,8 @@ class Passes:
             _delete_framebuffer(fb)
         self.fbs = []
         GL.glDeleteTextures(1, [self.white])
+        if self.lit_program is not None:
+            self.lit_program.delete()
         GL.glDeleteProgram(self.color_program)
         GL.glDeleteProgram(self.gt_program)
 
@@ -266,8 +271,12 @@ class Passes:
         GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
         return int(tex)
 
-    def upload(self, meshes: Sequence[Mesh], meta: dict) -> GLScene:
+    def upload(self, meshes: Sequence[Mesh], meta: dict, *,
+               lighting: tuple[float, list] | None = None) -> GLScene:
         """One vertex and one index buffer for the scene; one texture per distinct image.
+
+        ``lighting`` (ambient, lights of :func:`synth.render.lighting.scene_lights`) makes the
+        scene lit: a second vertex buffer and its shadow maps (:mod:`synth.render.lighting`).
 
         Closed meshes come first in the index buffer, open ones after: the depth
         pass draws each group in one call (llvmpipe's per-draw cost dominates
@@ -314,12 +323,25 @@ class Passes:
                                 GL.GL_STATIC_DRAW)
         GL.glBindVertexArray(0)
         GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
-        return GLScene(meshes, vao_color, vao_gt, [vbo, ebo], list(textures.values()),
-                        draws, closed, int(faces.size), meta)
+        up = GLScene(meshes, vao_color, vao_gt, [vbo, ebo], list(textures.values()),
+                     draws, closed, int(faces.size), meta)
+        if lighting is not None:
+            from synth.render import lighting as lit
+
+            if self.lit_program is None:
+                self.lit_program = lit.LitProgram(_program)
+            up.lit = lit.upload_lit(self.lit_program, meshes, vbo, ebo, vao_gt, up.count,
+                                    *lighting)
+        return up
 
     def release(self, up: GLScene) -> None:
         from OpenGL import GL
 
+        if up.lit is not None:
+            from synth.render.lighting import release_lit
+
+            release_lit(up.lit)
+            up.lit = None
         GL.glDeleteVertexArrays(2, [up.vao_color, up.vao_gt])
         GL.glDeleteBuffers(len(up.buffers), up.buffers)
         if up.textures:
@@ -340,8 +362,32 @@ class Passes:
         GL.glDepthFunc(GL.GL_LESS)
         GL.glDepthRange(0.0, 1.0)
 
-    def color(self, up: GLScene, pv: np.ndarray, background: Sequence[float]) -> np.ndarray:
-        """(H, W, 3) uint8 colour, row 0 at the top."""
+    def _draw_meshes(self, up: GLScene, pv: np.ndarray, eye: Sequence[float], mode: int) -> None:
+        """Each mesh's range with its texture: the flat program, or the lit one for a lit scene."""
+        from OpenGL import GL
+
+        lit = up.lit
+        if lit is None:
+            GL.glUseProgram(self.color_program)
+            GL.glUniformMatrix4fv(self.loc_color_pv, 1, GL.GL_TRUE, pv)
+            GL.glBindVertexArray(up.vao_color)
+        else:
+            self.lit_program.begin(lit, pv, eye, mode)
+        GL.glActiveTexture(GL.GL_TEXTURE0)
+        for i, (tex, first, count) in enumerate(up.draws):
+            _set_culling(first < up.closed)
+            if lit is not None:
+                self.lit_program.set_material(lit, i, first < up.closed)
+            GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
+            GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
+                              ctypes.c_void_p(4 * first))
+        GL.glBindVertexArray(0)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+        GL.glUseProgram(0)
+
+    def color(self, up: GLScene, pv: np.ndarray, background: Sequence[float], *,
+              eye: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+        """(H, W, 3) uint8 colour, row 0 at the top (``eye``: world position, lit scenes)."""
         from OpenGL import GL
 
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_msaa[0])
@@ -350,18 +396,7 @@ class Passes:
         self._common_state()
         GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([*background, 1.0], dtype=np.float32))
         GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
-        GL.glUseProgram(self.color_program)
-        GL.glUniformMatrix4fv(self.loc_color_pv, 1, GL.GL_TRUE, pv)
-        GL.glActiveTexture(GL.GL_TEXTURE0)
-        GL.glBindVertexArray(up.vao_color)
-        for tex, first, count in up.draws:
-            _set_culling(first < up.closed)
-            GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-            GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
-                              ctypes.c_void_p(4 * first))
-        GL.glBindVertexArray(0)
-        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
-        GL.glUseProgram(0)
+        self._draw_meshes(up, pv, eye, 0)
         # same-size blit of a multisampled buffer = the average of each pixel's samples
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.fb_msaa[0])
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self.fb_resolve[0])
@@ -371,6 +406,29 @@ class Passes:
         out = np.empty((self.h, self.w, 3), dtype=np.uint8)
         GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
         GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGB, GL.GL_UNSIGNED_BYTE, out.ctypes.data)
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+        return out[::-1].copy()  # GL rows run bottom-up
+
+    def highlight(self, up: GLScene, pv: np.ndarray, eye: Sequence[float]) -> np.ndarray:
+        """(H, W) float32 rise of the displayed value (grey levels, the largest channel) that the
+        specular term causes at each pixel centre of a lit scene; 0 where none. Row 0 at top."""
+        from OpenGL import GL
+
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_gt[0])
+        GL.glViewport(0, 0, self.w, self.h)
+        GL.glDisable(GL.GL_MULTISAMPLE)
+        self._common_state()
+        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([0, 0, 0, 0], dtype=np.float32))
+        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
+        self._draw_meshes(up, pv, eye, 1)
+        return self._read_float()
+
+    def _read_float(self) -> np.ndarray:
+        from OpenGL import GL
+
+        out = np.empty((self.h, self.w), dtype=np.float32)
+        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
+        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RED, GL.GL_FLOAT, out.ctypes.data)
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
         return out[::-1].copy()  # GL rows run bottom-up
 
@@ -395,8 +453,4 @@ class Passes:
                                   ctypes.c_void_p(4 * first))
         GL.glBindVertexArray(0)
         GL.glUseProgram(0)
-        out = np.empty((self.h, self.w), dtype=np.float32)
-        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
-        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RED, GL.GL_FLOAT, out.ctypes.data)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        return out[::-1].copy()  # GL rows run bottom-up
+        return self._read_float()

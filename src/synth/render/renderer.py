@@ -56,10 +56,15 @@ class ViewRender:
     depth : (H, W) float32 array
         Camera-space depth ``Z`` (metres, along the optical axis) of the
         surface seen through each pixel centre; ``inf`` where there is none.
+    highlight : (H, W) float32 array or None
+        Scenes with a specular material only: how many grey levels (of 255, the largest
+        channel) the specular term adds at each pixel centre (see
+        :data:`synth.render.lighting.HIGHLIGHT_LEVELS`); None for other scenes.
     """
 
     color: np.ndarray
     depth: np.ndarray
+    highlight: np.ndarray | None = None
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -206,8 +211,14 @@ class Renderer:
             yield dict(self._held[key][1].meta)
             return
         meshes, background, meta = as_meshes(scene)
+        lighting = None
+        if getattr(scene, "is_lit", None) is not None and scene.is_lit():
+            from synth.render.lighting import scene_lights
+
+            lighting = scene_lights(scene)
+            meta = {**meta, "specular": scene.has_specular()}
         self._context.make_current()
-        up = self._passes.upload(meshes, {**meta, "background": background})
+        up = self._passes.upload(meshes, {**meta, "background": background}, lighting=lighting)
         self._held[key] = (scene, up)  # keeps `scene` alive so its id is not reused
         try:
             yield {k: v for k, v in up.meta.items() if k != "background"}
@@ -257,7 +268,12 @@ class Renderer:
         if (rig.width, rig.height) != (self.width, self.height):
             self.width, self.height = rig.width, rig.height
             self._passes.resize(rig.width, rig.height)
-        pv = (_projection(rig) @ np.linalg.inv(_camera_pose(rig, eye))).astype(np.float32)
-        color = self._passes.color(up, pv, up.meta["background"])
+        pose = _camera_pose(rig, eye)
+        pv = (_projection(rig) @ np.linalg.inv(pose)).astype(np.float32)
+        position = pose[:3, 3]
+        color = self._passes.color(up, pv, up.meta["background"], eye=position)
         depth = self._passes.depth(up, pv, rig.far)
-        return ViewRender(color=color, depth=depth)
+        highlight = None
+        if up.meta.get("specular"):
+            highlight = self._passes.highlight(up, pv, position)
+        return ViewRender(color=color, depth=depth, highlight=highlight)
