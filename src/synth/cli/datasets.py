@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from synth.cli.options import backend_option, engine_option, format_option, out_dir_option, workers_option
@@ -24,13 +26,28 @@ __all__ = ["dataset"]
               help="Check the dataset in DIR instead (sizes and SHA-256 of every file against "
                    "the samples' records; holes up to --count; extra files; the manifest): one "
                    "line per problem, exit 1 if any.")
-def dataset(config, out, count, workers, engine, address, fmt, backend, verify_dir) -> None:
-    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), or check
-    one with --verify DIR.
+@click.option("--upgrade", "upgrade", default=None, metavar="DIR",
+              type=click.Path(exists=True, file_okay=False, path_type=Path),
+              help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
+                   "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
+                   "no CONFIG.")
+def dataset(config, out, count, workers, engine, address, fmt, backend, verify_dir,
+            upgrade) -> None:
+    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
+    one with --verify DIR, or convert one of the previous layout with --upgrade DIR.
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
+    if upgrade is not None:
+        if config is not None or out is not None or verify_dir is not None:
+            raise click.UsageError("--upgrade DIR converts DIR in place: drop CONFIG, --out and "
+                                   "--verify")
+        from synth.dataset.layout import upgrade_dataset
+
+        moved = upgrade_dataset(upgrade)
+        click.echo(f"{upgrade}: {moved} sample folders moved; layout is current")
+        return
     if verify_dir is not None:
         if config is not None:
             raise click.UsageError("--verify DIR checks an existing dataset: drop CONFIG")
@@ -44,7 +61,7 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, verify_d
         raise SystemExit(1 if problems else 0)
     if config is None or out is None:
         raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
-                               "--out DIR, or --verify DIR" if config is None else
+                               "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server

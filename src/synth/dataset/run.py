@@ -5,9 +5,10 @@ Layout of a dataset directory ``out/``::
     dataset.json        configuration (canonical), its hash, format, Canny settings
     manifest.jsonl      one JSON record per complete sample, sorted by index
     manifest.csv        the same records, flattened (``params.*``, ``stats.*`` columns)
-    000000/             sample 0: im0.png im1.png disp0.pfm disp1.pfm mask0nocc.png calib.txt
-                        scene.json sample.json [preview.png] files.json  (fmt="middlebury")
-    000000/             scene.json sample.json files.json; the images go to (fmt="kitti")
+    MiddEval3/trainingF/000000/   sample 0: im0.png im1.png disp0GT.pfm ... calib.txt
+                        scene.json sample.json [preview.png]          (fmt="middlebury")
+    MiddEval3/official_train.txt  the complete samples' names (RAFT-Stereo's Middlebury loader)
+    training/samples/000000/      scene.json sample.json; the images go to  (fmt="kitti")
     training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
     training/calib_cam_to_cam/                                    000000.txt
     .lock               held (flock) by the run writing the directory
@@ -17,8 +18,9 @@ Guarantees (see ``docs/datasets.md``):
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
   :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
   workers, the engine or the order;
-- a sample is written into ``.NNNNNN.tmp-<pid>/``, its completion record ``files.json`` (every
-  file with size and SHA-256, :mod:`synth.dataset.integrity`) last, and renamed to ``NNNNNN/``.
+- a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to its folder (above; see
+  :mod:`synth.dataset.layout`); its completion record ``records/NNNNNN.json`` (every file with
+  size and SHA-256, :mod:`synth.dataset.integrity`) is written last.
   A run killed at any point and restarted skips the samples whose record exists and whose files
   have the recorded sizes, renders the others again (an emptied folder, a truncated file) and
   ends with the same bytes as an uninterrupted run;
@@ -51,7 +53,9 @@ from synth._json import read_json_object
 from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
-from synth.dataset.integrity import RECORD, completion_record, sample_problems
+from synth.dataset.integrity import completion_record, sample_problems
+from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
+                                  write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.export import FORMATS, prepare_output_dir, write_pair
 from synth.formats import KITTI_ROOT
@@ -188,26 +192,35 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
                 os.replace(f, out / KITTI_ROOT / sub.name / f.name)
             sub.rmdir()
         shared.rmdir()
-    final = out / f"{index:06d}"
+    final = sample_dir(out, fmt, index)
+    final.parent.mkdir(parents=True, exist_ok=True)
     try:
         os.rename(tmp, final)
     except OSError:
-        if not (final / RECORD).is_file():
+        if not record_path(out, index).is_file():
             raise
         shutil.rmtree(tmp, ignore_errors=True)  # finished meanwhile by another process: same bytes
     # No fsync of `out`: the files are not fsynced either (see docs/datasets.md), so making the
     # rename durable would buy nothing after a power loss, and it costs ~3 ms per sample.
 
 
-def _write_record(tmp: Path, index: int, fmt: str) -> None:
-    """The sample's completion record, last, listing its files by their final paths."""
-    name = f"{index:06d}"
+def _record_bytes(tmp: Path, out: Path, index: int, fmt: str) -> bytes:
+    """The sample's completion record, listing its files (still in ``tmp``) by their final paths."""
+    folder = sample_dir(out, fmt, index).relative_to(out).as_posix()
     files = []
     for path in sorted(p for p in tmp.rglob("*") if p.is_file()):
         rel = path.relative_to(tmp)
-        in_dataset = str(rel) if fmt == "kitti" and rel.parts[0] == KITTI_ROOT else f"{name}/{rel}"
+        in_dataset = rel.as_posix() if fmt == "kitti" and rel.parts[0] == KITTI_ROOT \
+            else f"{folder}/{rel.as_posix()}"
         files.append((in_dataset, path))
-    atomic_write_bytes(tmp / RECORD, completion_record(index, files), fsync=False)
+    return completion_record(index, files)
+
+
+def _write_record(out: Path, index: int, record: bytes) -> None:
+    """Write the completion record last, once the sample's files are in place."""
+    path = record_path(out, index)
+    path.parent.mkdir(exist_ok=True)
+    atomic_write_bytes(path, record, fsync=False)
 
 
 class SampleTask:
@@ -236,8 +249,9 @@ class SampleTask:
         try:
             shutil.rmtree(tmp, ignore_errors=True)
             record = produce_sample(self.config, index, renderer, tmp, self.fmt)
-            _write_record(tmp, index, self.fmt)
+            done = _record_bytes(tmp, self.out, index, self.fmt)
             _commit(tmp, self.out, index, self.fmt)
+            _write_record(self.out, index, done)
             return record
         except BaseException as exc:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -260,7 +274,7 @@ def _write_manifest(out: Path) -> list[dict]:
 def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
     return {"format_version": _FORMAT_VERSION, "name": config.name,
             "config": config.to_dict(with_count=False), "config_hash": config.hash(),
-            "format": fmt, "canny": CANNY_SETTINGS,
+            "format": fmt, "layout": LAYOUT_VERSION, "canny": CANNY_SETTINGS,
             "seeding": "sample_seed = SeedSequence(seed, spawn_key=(index,)).generate_state(1, "
                        "uint64)[0] >> 1"}
 
@@ -283,6 +297,7 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
                 f"one writes version {_FORMAT_VERSION} (other bytes for the same seeds), so the "
                 "dataset cannot be extended here: finish it with the version that started it, "
                 "or choose a new output directory")
+        check_layout(out)
         return
     others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
     if others:
@@ -358,8 +373,8 @@ def run_dataset(
     >>> import tempfile
     >>> tmp = tempfile.mkdtemp()
     >>> run = run_dataset("planes", out=f"{tmp}/planes", count=2, progress=False)
-    >>> run.rendered, sorted(p.name for p in run.out.iterdir())[:3]
-    (2, ['.lock', '000000', '000001'])
+    >>> run.rendered, sorted(p.name for p in (run.out / "MiddEval3" / "trainingF").iterdir())
+    (2, ['000000', '000001'])
     """
     cfg = load_config(config)
     count = cfg.count if count is None else count
@@ -386,9 +401,10 @@ def run_dataset(
                 shutil.rmtree(stale, ignore_errors=True)
         # a sample is done when its completion record exists and its files have the recorded
         # sizes (checksums: verify_dataset, `stereoforge dataset --verify`); else render again
-        todo = [i for i in range(count) if sample_problems(out, i)]
+        todo = [i for i in range(count) if sample_problems(out, fmt, i)]
         for i in todo:
-            shutil.rmtree(out / f"{i:06d}", ignore_errors=True)
+            record_path(out, i).unlink(missing_ok=True)
+            shutil.rmtree(sample_dir(out, fmt, i), ignore_errors=True)
         task = SampleTask(cfg, out, fmt, backend)
         bar = progress_bar(total=len(todo), desc=f"dataset {cfg.name}", unit="pair",
                            enabled=progress)
@@ -397,7 +413,7 @@ def run_dataset(
                 bar.update()
         finally:
             bar.close()
-            _write_manifest(out)
+            write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
     finally:
         os.close(lock)
     return DatasetRun(out=out, count=count, rendered=len(todo), skipped=count - len(todo),
@@ -433,7 +449,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     >>> sorted(f.name for f in files)[:3]
     ['calib.txt', 'disp0GT.pfm', 'disp1GT.pfm']
     >>> from pathlib import Path
-    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "000001", "im0.png").read_bytes()
+    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "MiddEval3", "trainingF", "000001", "im0.png").read_bytes()
     True
     """
     from synth.render.renderer import Renderer
@@ -446,7 +462,8 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     cfg = config_from_dict(header["config"], source=str(path))
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
         raise ParameterError(f"index must be an int in [0, 999999], got {index!r}")
-    record = root / f"{index:06d}" / "sample.json"
+    check_layout(root)
+    record = sample_dir(root, header["format"], index) / "sample.json"
     seed = sample_seed(cfg.seed, index)
     if record.is_file() and read_json_object(record, what="sample record", keys={"seed": int},
                                              fix=MODIFIED_FIX)["seed"] != seed:
