@@ -4,6 +4,8 @@
 - :mod:`synth.dataset.sampling` — what sample ``i`` draws from the configuration (seeded by ``i``).
 - :mod:`synth.dataset.engine` — local process pool (fork server) and Ray engines.
 - :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
+- :mod:`synth.dataset.layout` — where the sample folders live; the upgrade of the previous layout.
+- :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
 - :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
   and the texture-versus-window study).
@@ -28,6 +30,7 @@ if TYPE_CHECKING:
         loads_config,
     )
     from synth.dataset.engine import ENGINES
+    from synth.dataset.loader import StereoDataset
     from synth.dataset.run import (
         DatasetError,
         DatasetRun,
@@ -45,6 +48,7 @@ _EXPORTS = {
     "DatasetRun": "synth.dataset.run",
     "ENGINES": "synth.dataset.engine",
     "SampleError": "synth.dataset.run",
+    "StereoDataset": "synth.dataset.loader",
     "config_from_dict": "synth.dataset.config",
     "list_examples": "synth.dataset.config",
     "load_config": "synth.dataset.config",

@@ -34,8 +34,10 @@ from pathlib import Path
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
 from synth._json import read_json_object
+from synth.formats import KITTI_ROOT
 
-__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "KITTI_SAMPLES",
+__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "KITTI_TRAINING",
+           "KITTI_SAMPLES",
            "RECORDS", "SAMPLE_DIR", "METADATA", "sample_parent", "sample_dir", "sample_dirs",
            "record_path", "dataset_format", "check_layout", "write_scene_list", "upgrade_dataset"]
 
@@ -44,8 +46,10 @@ LAYOUT_VERSION = 2
 #: The MiddEval3 root of a Middlebury-format dataset, and its scene folder inside it.
 MIDDEVAL_ROOT = "MiddEval3"
 MIDDEVAL_SCENES = f"{MIDDEVAL_ROOT}/trainingF"
-#: Sample folders (scene.json, sample.json) of a KITTI-format dataset.
-KITTI_SAMPLES = "training/samples"
+#: The KITTI root of a KITTI-format dataset (``image_2/`` ...), and its sample folders
+#: (scene.json, sample.json) inside it.
+KITTI_TRAINING = KITTI_ROOT
+KITTI_SAMPLES = f"{KITTI_TRAINING}/samples"
 #: RAFT-Stereo's list of the Middlebury scenes to load, inside ``MIDDEVAL_ROOT``.
 SCENE_LIST = "official_train.txt"
 #: Folder of the completion records, ``records/NNNNNN.json``, at the dataset's root.
