@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import backend_option, engine_option, format_option, out_dir_option, workers_option
+from synth.cli.options import LazyChoice, backend_option, engine_option, out_dir_option, workers_option
 
 __all__ = ["dataset"]
 
@@ -19,7 +19,11 @@ __all__ = ["dataset"]
 @workers_option
 @engine_option
 @click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
-@format_option
+@click.option("--format", "fmt", default="middlebury", show_default=True,
+              type=LazyChoice("synth.formats:DATASET_FORMATS"),
+              help="Sample folders (middlebury, kitti) or tar shards (webdataset).")
+@click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
+              help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
 @backend_option
 @click.option("--verify", "verify_dir", default=None, metavar="DIR",
               type=click.Path(exists=True, file_okay=False),
@@ -31,7 +35,7 @@ __all__ = ["dataset"]
               help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
                    "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
                    "no CONFIG.")
-def dataset(config, out, count, workers, engine, address, fmt, backend, verify_dir,
+def dataset(config, out, count, workers, engine, address, fmt, shard_size, backend, verify_dir,
             upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
     one with --verify DIR, or convert one of the previous layout with --upgrade DIR.
@@ -63,6 +67,10 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, verify_d
         raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
                                "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
+    if shard_size is not None:  # refused with a format without shards, before any work
+        from synth.dataset.shards import check_shard_option, parse_size
+
+        shard_size = check_shard_option(fmt, parse_size(shard_size))
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 
@@ -71,6 +79,7 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, verify_d
 
     # a failed sample (SampleError, exit 1) names its index and how to reproduce it alone
     run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
-                      address=address, fmt=fmt, progress=True, backend=backend)
+                      address=address, fmt=fmt, progress=True, backend=backend,
+                      shard_size=shard_size)
     click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
                f"there, {run.seconds:.1f} s")

@@ -17,16 +17,16 @@ record is missing, unreadable or contradicted; :func:`verify_dataset` (``stereof
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 from collections.abc import Iterable
 from pathlib import Path
 
 from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
-                                  check_layout, dataset_format, record_path, sample_dir,
+                                  STAGING, check_layout, dataset_format, record_path, sample_dir,
                                   sample_parent)
 from synth.dataset.manifest import manifest_bytes, read_manifest
+from synth.dataset.shards import read_index, sha256
 from synth.formats import KITTI_ROOT
 
 __all__ = ["completion_record", "sample_problems", "verify_dataset"]
@@ -34,14 +34,27 @@ __all__ = ["completion_record", "sample_problems", "verify_dataset"]
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 
 
-def _sha256(path: Path) -> str:
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
+#: The folder of each format that holds every file of its samples (and nothing else).
+_TOOLS_ROOT = {"middlebury": MIDDEVAL_ROOT, "kitti": KITTI_ROOT, "webdataset": STAGING}
+
+
+def _shard_problems(root: Path, shards: list[dict], checksums: bool) -> list[str]:
+    problems = []
+    for s in shards:
+        path = root / str(s.get("name"))
+        if not path.is_file():
+            problems.append(f"{path.name}: missing (listed in shards.json)")
+        elif path.stat().st_size != s.get("bytes"):
+            problems.append(f"{path.name}: {path.stat().st_size} bytes, shards.json says "
+                            f"{s.get('bytes')} bytes (truncated or replaced)")
+        elif checksums and sha256(path) != s.get("sha256"):
+            problems.append(f"{path.name}: SHA-256 differs from shards.json (corrupt)")
+    return problems
 
 
 def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
     """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs."""
-    entries = {name: {"bytes": path.stat().st_size, "sha256": _sha256(path)}
+    entries = {name: {"bytes": path.stat().st_size, "sha256": sha256(path)}
                for name, path in sorted(files)}
     return (json.dumps({"files": entries, "index": index}, indent=2, sort_keys=True)
             + "\n").encode()
@@ -87,7 +100,7 @@ def sample_problems(root: Path, fmt: str, index: int, *, checksums: bool = False
         if size != entry["bytes"]:
             problems.append(f"{name}: {size} bytes, its record says {entry['bytes']} bytes "
                             "(truncated or replaced)")
-        elif checksums and _sha256(path) != entry["sha256"]:
+        elif checksums and sha256(path) != entry["sha256"]:
             problems.append(f"{name}: SHA-256 differs from its record (corrupt)")
     return problems
 
@@ -120,11 +133,15 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
     parent = sample_parent(root, fmt)
     folders = {int(d.name) for d in parent.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name)} \
         if parent.is_dir() else set()
-    present = sorted(folders)
+    shards = read_index(root) if fmt == "webdataset" else []
+    packed = {int(r["index"]) for s in shards for r in s["records"]}
+    present = sorted(folders | packed)
     last = max(present, default=-1) if count is None else count - 1
-    problems: list[str] = []
+    problems: list[str] = _shard_problems(root, shards, checksums)
     listed: set[str] = set()
     for index in sorted(set(range(last + 1)) | set(present)):
+        if index in packed and index not in folders:
+            continue  # in a complete shard, checked above
         found = sample_problems(root, fmt, index, checksums=checksums)
         if found == [f"{index:06d}: missing"]:
             found = [f"{index:06d}: missing (a hole: the dataset has samples after it)"
@@ -137,7 +154,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
             listed |= {p.relative_to(root).as_posix() for p in folder.rglob("*")}
     if fmt == "middlebury":
         listed.add(f"{MIDDEVAL_ROOT}/{SCENE_LIST}")
-    tools_root = root / (MIDDEVAL_ROOT if fmt == "middlebury" else KITTI_ROOT)
+    tools_root = root / _TOOLS_ROOT[fmt]
     if tools_root.is_dir():  # every file under the tools' folder belongs to a sample's record
         problems += [f"{rel}: extra file (no sample's record lists it)"
                      for rel in (p.relative_to(root).as_posix()
@@ -152,7 +169,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
                              and int(p.stem) in folders)]
     for entry in sorted(root.iterdir()):
         if entry.name in METADATA or (entry.is_dir() and entry.name in (
-                RECORDS, tools_root.name)):
+                RECORDS, tools_root.name)) or entry.name in {s["name"] for s in shards}:
             continue
         if _TMP_DIR.match(entry.name):
             problems.append(f"{entry.name}: stale temporary directory of an interrupted run "

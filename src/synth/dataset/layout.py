@@ -38,7 +38,7 @@ from synth.formats import KITTI_ROOT
 
 __all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "KITTI_TRAINING",
            "KITTI_SAMPLES",
-           "RECORDS", "SAMPLE_DIR", "METADATA", "sample_parent", "sample_dir", "sample_dirs",
+           "STAGING", "RECORDS", "SAMPLE_DIR", "METADATA", "sample_parent", "sample_dir", "sample_dirs",
            "record_path", "dataset_format", "check_layout", "write_scene_list", "upgrade_dataset"]
 
 #: Version of the directory layout, ``layout`` in ``dataset.json`` (absent: layout 1).
@@ -60,7 +60,9 @@ SAMPLE_DIR = re.compile(r"^\d{6}$")
 METADATA = ("dataset.json", "manifest.jsonl", "manifest.csv", ".lock", "shards.json")
 _SAMPLE_NAME = SAMPLE_DIR
 _LEGACY_RECORD = "files.json"
-_PARENTS = {"middlebury": MIDDEVAL_SCENES, "kitti": KITTI_SAMPLES}
+#: Samples of a ``webdataset`` dataset not yet in a complete shard (:mod:`synth.dataset.shards`).
+STAGING = ".staging"
+_PARENTS = {"middlebury": MIDDEVAL_SCENES, "kitti": KITTI_SAMPLES, "webdataset": STAGING}
 
 
 def sample_parent(root: str | Path, fmt: str) -> Path:

@@ -14,6 +14,7 @@ from typing import Any
 
 from synth._json import read_json_object
 from synth.dataset.layout import SAMPLE_DIR, sample_dirs
+from synth.dataset.shards import packed_records
 
 __all__ = ["MODIFIED_FIX", "SAMPLE_DIR", "read_manifest", "manifest_bytes"]
 
@@ -36,6 +37,7 @@ def read_manifest(dataset_dir: str | Path) -> list[dict]:
     """
     records = [read_json_object(d / "sample.json", what="sample record", keys=_RECORD_KEYS,
                                 fix=MODIFIED_FIX) for d in sample_dirs(dataset_dir)]
+    records += packed_records(dataset_dir)  # --format webdataset: the samples in complete shards
     return sorted(records, key=lambda r: r["index"])
 
 

@@ -55,10 +55,11 @@ from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
 from synth.dataset.integrity import completion_record, sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
-                                  write_scene_list)
+                                  sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
-from synth.export import FORMATS, prepare_output_dir, write_pair
-from synth.formats import KITTI_ROOT
+from synth.dataset.shards import ShardWriter, check_shard_option
+from synth.export import prepare_output_dir, write_pair
+from synth.formats import DATASET_FORMATS, KITTI_ROOT
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
 from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
@@ -175,7 +176,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
               "params": dict(draw.params), "stats": stats}
     dest.mkdir(parents=True, exist_ok=True)
-    write_pair(degraded, dest, scene=scene, seed=draw.seed, fmt=fmt, index=index,
+    write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
+               fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
                preview=config.preview, fsync=False)
     atomic_write_bytes(dest / "sample.json", _json_bytes(record), fsync=False)
     lap("write")
@@ -279,11 +281,16 @@ def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
                        "uint64)[0] >> 1"}
 
 
-def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
+def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | None) -> None:
     header = _dataset_header(config, fmt)
+    if shard_size is not None:
+        header["shard_size"] = shard_size
     path = out / "dataset.json"
     if path.is_file():
         old = read_json_object(path, what="dataset header", fix=MODIFIED_FIX)
+        if old.get("shard_size") != shard_size:
+            raise DatasetError(f"{out} holds shards of {old.get('shard_size')} bytes, not "
+                               f"{shard_size}; rerun with --shard-size {old.get('shard_size')}")
         if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
             raise DatasetError(
                 f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
@@ -330,6 +337,7 @@ def run_dataset(
     fmt: str = "middlebury",
     progress: bool = True,
     backend: str = "auto",
+    shard_size: int | None = None,
 ) -> DatasetRun:
     """Render (or finish) the dataset of ``config`` into ``out``.
 
@@ -348,11 +356,14 @@ def run_dataset(
     engine : {"local", "ray"}
     address : str, optional
         Ray cluster address; default a local Ray with ``num_cpus=workers``.
-    fmt : {"middlebury", "kitti"}
+    fmt : {"middlebury", "kitti", "webdataset"}
+        ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
     progress : bool
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}
         GL backend of every worker's renderer.
+    shard_size : int, optional
+        Bytes per shard of ``fmt="webdataset"`` (default about 1 GB); refused with other formats.
 
     Returns
     -------
@@ -380,8 +391,9 @@ def run_dataset(
     count = cfg.count if count is None else count
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 999_999:
         raise ValueError(f"count must be an int in [1, 999999], got {count!r}")
-    if fmt not in FORMATS:
-        raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    if fmt not in DATASET_FORMATS:
+        raise ValueError(f"fmt must be one of {', '.join(DATASET_FORMATS)}, got {fmt!r}")
+    shard_size = check_shard_option(fmt, shard_size)
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -395,13 +407,18 @@ def run_dataset(
     out.mkdir(parents=True, exist_ok=True)
     lock = _lock(out)
     try:
-        _open_dataset(out, cfg, fmt)
+        _open_dataset(out, cfg, fmt, shard_size)
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
                 shutil.rmtree(stale, ignore_errors=True)
         # a sample is done when its completion record exists and its files have the recorded
         # sizes (checksums: verify_dataset, `stereoforge dataset --verify`); else render again
-        todo = [i for i in range(count) if sample_problems(out, fmt, i)]
+        packer = None if shard_size is None else ShardWriter(
+            out, sample_parent(out, fmt), shard_size, count,
+            complete=lambda i: not sample_problems(out, fmt, i),
+            forget=lambda i: record_path(out, i).unlink(missing_ok=True))
+        todo = packer.todo(count) if packer else [i for i in range(count)
+                                                 if sample_problems(out, fmt, i)]
         for i in todo:
             record_path(out, i).unlink(missing_ok=True)
             shutil.rmtree(sample_dir(out, fmt, i), ignore_errors=True)
@@ -411,6 +428,15 @@ def run_dataset(
         try:
             for _ in run_tasks(task, todo, workers=workers, engine=engine, address=address):
                 bar.update()
+                if packer:
+                    packer.advance(count)
+            if packer:
+                packer.advance(count)
+                packer.finish()
+        except BaseException:
+            if packer:
+                packer.abort()
+            raise
         finally:
             bar.close()
             write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
