@@ -75,7 +75,12 @@ def raft(clients_dir: Path, monkeypatch: pytest.MonkeyPatch):
     root = clients_dir / "raft_stereo"
     if not (root / "core" / "stereo_datasets.py").is_file():
         pytest.fail(f"{root}/core/stereo_datasets.py is missing from the clients folder")
+    import cv2
+
     before = set(sys.modules)
+    # frame_utils sets OpenCV's global thread count and OpenCL switch at import: restored after,
+    # since the matcher's Canny-versus-OpenCV tests fail after it otherwise (seen in the full suite)
+    threads, opencl = cv2.getNumThreads(), cv2.ocl.useOpenCL()
     for name, module in _fake_modules().items():
         monkeypatch.setitem(sys.modules, name, module)
     monkeypatch.syspath_prepend(str(root))
@@ -83,6 +88,8 @@ def raft(clients_dir: Path, monkeypatch: pytest.MonkeyPatch):
     from core.utils import frame_utils  # noqa: PLC0415
 
     yield datasets, frame_utils
+    cv2.setNumThreads(threads)
+    cv2.ocl.setUseOpenCL(opencl)
     for name in set(sys.modules) - before:
         if name == "core" or name.startswith("core."):
             del sys.modules[name]
