@@ -24,6 +24,10 @@ __all__ = ["dataset"]
               help="Sample folders (middlebury, kitti) or tar shards (webdataset).")
 @click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
               help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
+@click.option("--disp-encoding", "disp_encoding", default=None,
+              type=LazyChoice("synth.dataset.shards:DISP_ENCODINGS"),
+              help="How --format webdataset stores disparities and depth: pfm, or pfm.gz "
+                   "(gzip, lossless) [default: pfm].")
 @backend_option
 @click.option("--verify", "verify_dir", default=None, metavar="DIR",
               type=click.Path(exists=True, file_okay=False),
@@ -35,8 +39,8 @@ __all__ = ["dataset"]
               help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
                    "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
                    "no CONFIG.")
-def dataset(config, out, count, workers, engine, address, fmt, shard_size, backend, verify_dir,
-            upgrade) -> None:
+def dataset(config, out, count, workers, engine, address, fmt, shard_size, disp_encoding,
+            backend, verify_dir, upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
     one with --verify DIR, or convert one of the previous layout with --upgrade DIR.
 
@@ -71,6 +75,10 @@ def dataset(config, out, count, workers, engine, address, fmt, shard_size, backe
         from synth.dataset.shards import check_shard_option, parse_size
 
         shard_size = check_shard_option(fmt, parse_size(shard_size))
+    if disp_encoding is not None:
+        from synth.dataset.shards import check_disp_encoding
+
+        disp_encoding = check_disp_encoding(fmt, disp_encoding)
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 
@@ -80,6 +88,6 @@ def dataset(config, out, count, workers, engine, address, fmt, shard_size, backe
     # a failed sample (SampleError, exit 1) names its index and how to reproduce it alone
     run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
                       address=address, fmt=fmt, progress=True, backend=backend,
-                      shard_size=shard_size)
+                      shard_size=shard_size, disp_encoding=disp_encoding)
     click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
                f"there, {run.seconds:.1f} s")

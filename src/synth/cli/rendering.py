@@ -42,8 +42,11 @@ def presets() -> None:
 @click.option("--from-manifest", "from_manifest", nargs=2, default=None,
               type=(click.Path(file_okay=False, path_type=Path), int), metavar="DIR INDEX",
               help="Re-render sample INDEX of the dataset in DIR alone (same bytes), instead of SCENE.")
+@click.option("--ground-truth", "ground_truth", default=None, metavar="KINDS",
+              help="Also write optional ground truth, comma-separated: depth, normals, instance, "
+                   "semantic, occlusion_right (Middlebury format; see docs/datasets.md).")
 def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite,
-           from_manifest) -> None:
+           from_manifest, ground_truth) -> None:
     """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
     from synth import StereoRig, render_pair
     from synth.export import resolve_scene, save_pair
@@ -59,10 +62,28 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         return
     if scene is None:
         fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
+    kinds = ()
+    if ground_truth is not None:  # checked before any work
+        from synth.ground_truth import check_ground_truth
+
+        kinds = check_ground_truth(ground_truth, where="--ground-truth")
+        if kinds and fmt == "kitti":
+            fail(ValueError("--ground-truth has no place in the KITTI 2015 layout; use "
+                            "--format middlebury or drop --ground-truth"))
     spec, seed = resolve_scene(scene, seed=seed)
     rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
-    pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
-    written = save_pair(pair, out, scene=spec, seed=seed, fmt=fmt, overwrite=overwrite)
+    extra = None
+    if kinds:
+        from synth.ground_truth import render_ground_truth
+        from synth.render import Renderer
+
+        with Renderer(rig.width, rig.height, backend=backend) as renderer:
+            pair = render_pair(spec, rig, renderer=renderer)
+            extra = render_ground_truth(pair, spec, kinds, renderer=renderer)
+    else:
+        pair = render_pair(spec, rig, backend=backend)  # validates before anything is written
+    written = save_pair(pair, out, scene=spec, seed=seed, fmt=fmt, overwrite=overwrite,
+                        ground_truth=extra)
     click.echo(f"wrote {len(written)} files to {out}")
 
 

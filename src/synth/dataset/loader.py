@@ -49,6 +49,31 @@ def _records(root: Path) -> list[dict]:
     return read_manifest(root)  # the complete samples' sample.json (not a possibly stale manifest)
 
 
+def _png(path: Path) -> np.ndarray:
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None or image.ndim != 2:
+        raise DatasetError(f"{path}: not a grey PNG; the dataset directory was modified")
+    return image
+
+
+def _optional_ground_truth(folder: Path) -> dict[str, np.ndarray]:
+    """The optional ground truth of a sample folder (``synth.ground_truth``), when written."""
+    out: dict[str, np.ndarray] = {}
+    if (folder / "depth0.pfm").is_file():
+        out["depth"] = read_pfm(folder / "depth0.pfm").astype(np.float32, copy=False)
+    if (folder / "normals0.pfm").is_file():
+        out["normals"] = read_pfm(folder / "normals0.pfm").astype(np.float32, copy=False)
+    if (folder / "instance0.png").is_file():
+        out["instance"] = _png(folder / "instance0.png").astype(np.uint16, copy=False)
+    if (folder / "semantic0.png").is_file():
+        out["semantic"] = _png(folder / "semantic0.png").astype(np.uint8, copy=False)
+    if (folder / "mask1nocc.png").is_file():
+        out["occlusion_right"] = _png(folder / "mask1nocc.png") == 128
+    return out
+
+
 class StereoDataset:
     """The samples of a dataset directory made by :func:`synth.run_dataset`.
 
@@ -80,7 +105,10 @@ class StereoDataset:
       ground-truth disparity; ``mask0nocc.png`` 128, or valid in ``disp_occ_0`` only);
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
-    - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm``).
+    - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm``), and the
+      optional ground truth of :mod:`synth.ground_truth`: ``depth`` ((H, W) float32 metres),
+      ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16), ``semantic`` ((H, W)
+      uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels hidden in the left).
 
     Raises
     ------
@@ -148,9 +176,7 @@ class StereoDataset:
                 extra["disp_right"] = s.disp_right.astype(np.float32, copy=False)
         else:
             s = load_kitti_2015(self.root / KITTI_TRAINING, index)
-        for name, key in (("depth0.pfm", "depth"),):  # optional ground truth, when written
-            if (folder / name).is_file():
-                extra[key] = read_pfm(folder / name).astype(np.float32, copy=False)
+        extra.update(_optional_ground_truth(folder))
         rig = json.loads((folder / "scene.json").read_text())["rig"]
         disp = s.disp_left.astype(np.float32, copy=False)
         mask = s.mask_left if s.mask_left is not None else np.where(np.isfinite(disp), 255, 0)

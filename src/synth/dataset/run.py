@@ -57,7 +57,7 @@ from synth.dataset.integrity import completion_record, sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
                                   sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
-from synth.dataset.shards import ShardWriter, check_shard_option
+from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.export import prepare_output_dir, write_pair
 from synth.formats import DATASET_FORMATS, KITTI_ROOT
 from synth.photometric import apply_photometric
@@ -179,6 +179,11 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
                fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
                preview=config.preview, fsync=False)
+    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.ground_truth)
+        from synth.ground_truth import render_ground_truth, write_ground_truth
+
+        write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
+                                                     renderer=renderer), fsync=False)
     atomic_write_bytes(dest / "sample.json", _json_bytes(record), fsync=False)
     lap("write")
     return record
@@ -281,16 +286,23 @@ def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
                        "uint64)[0] >> 1"}
 
 
-def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | None) -> None:
+def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | None,
+                  disp_encoding: str | None) -> None:
     header = _dataset_header(config, fmt)
     if shard_size is not None:
         header["shard_size"] = shard_size
+    if disp_encoding is not None:  # absent by default: dataset.json as before
+        header["disp_encoding"] = disp_encoding
     path = out / "dataset.json"
     if path.is_file():
         old = read_json_object(path, what="dataset header", fix=MODIFIED_FIX)
         if old.get("shard_size") != shard_size:
             raise DatasetError(f"{out} holds shards of {old.get('shard_size')} bytes, not "
                                f"{shard_size}; rerun with --shard-size {old.get('shard_size')}")
+        if old.get("disp_encoding") != disp_encoding:
+            raise DatasetError(f"{out} holds shards with float maps encoded as "
+                               f"{old.get('disp_encoding') or 'pfm'}, not {disp_encoding or 'pfm'}"
+                               f"; rerun with --disp-encoding {old.get('disp_encoding') or 'pfm'}")
         if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
             raise DatasetError(
                 f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
@@ -338,6 +350,7 @@ def run_dataset(
     progress: bool = True,
     backend: str = "auto",
     shard_size: int | None = None,
+    disp_encoding: str | None = None,
 ) -> DatasetRun:
     """Render (or finish) the dataset of ``config`` into ``out``.
 
@@ -362,6 +375,9 @@ def run_dataset(
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}
         GL backend of every worker's renderer.
+    disp_encoding : {"pfm", "pfm.gz"}, optional
+        How ``fmt="webdataset"`` stores the float maps (default ``pfm``; ``pfm.gz``: gzip,
+        lossless); refused with other formats.
     shard_size : int, optional
         Bytes per shard of ``fmt="webdataset"`` (default about 1 GB); refused with other formats.
 
@@ -394,6 +410,11 @@ def run_dataset(
     if fmt not in DATASET_FORMATS:
         raise ValueError(f"fmt must be one of {', '.join(DATASET_FORMATS)}, got {fmt!r}")
     shard_size = check_shard_option(fmt, shard_size)
+    disp_encoding = check_disp_encoding(fmt, disp_encoding)
+    if cfg.ground_truth and fmt == "kitti":
+        raise ParameterError(f"{cfg.source}: ground_truth = {list(cfg.ground_truth)} has no place "
+                             "in the KITTI 2015 layout; use fmt='middlebury' or 'webdataset', or "
+                             "drop ground_truth")
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -407,7 +428,7 @@ def run_dataset(
     out.mkdir(parents=True, exist_ok=True)
     lock = _lock(out)
     try:
-        _open_dataset(out, cfg, fmt, shard_size)
+        _open_dataset(out, cfg, fmt, shard_size, disp_encoding)
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
                 shutil.rmtree(stale, ignore_errors=True)
@@ -416,7 +437,8 @@ def run_dataset(
         packer = None if shard_size is None else ShardWriter(
             out, sample_parent(out, fmt), shard_size, count,
             complete=lambda i: not sample_problems(out, fmt, i),
-            forget=lambda i: record_path(out, i).unlink(missing_ok=True))
+            forget=lambda i: record_path(out, i).unlink(missing_ok=True),
+            disp_encoding=disp_encoding)
         todo = packer.todo(count) if packer else [i for i in range(count)
                                                  if sample_problems(out, fmt, i)]
         for i in todo:

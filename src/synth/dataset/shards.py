@@ -27,6 +27,7 @@ machine (mtime 0, uid/gid 0, mode 0644): same seed, same bytes.
 
 from __future__ import annotations
 
+import gzip
 import hashlib
 import io
 import json
@@ -41,15 +42,23 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, ParameterError
 from synth._json import read_json_object
 
-__all__ = ["DEFAULT_SHARD_SIZE", "FIELDS", "INDEX", "parse_size", "check_shard_option", "read_index",
+__all__ = ["DEFAULT_SHARD_SIZE", "DISP_ENCODINGS", "FIELDS", "INDEX", "check_disp_encoding",
+           "encode_member", "parse_size", "check_shard_option", "read_index",
            "packed_records", "sha256", "ShardWriter"]
 
 #: About 1 GB per shard.
 DEFAULT_SHARD_SIZE = 1_000_000_000
+#: How the float maps (``.pfm`` members: disparities, depth, normals) are stored in a shard:
+#: ``pfm`` the PFM bytes; ``pfm.gz`` the same bytes gzip-compressed (lossless; level 9, mtime 0,
+#: so same seed, same bytes), field ``disp.pfm.gz``, which ``webdataset``'s default decoder
+#: decompresses.
+DISP_ENCODINGS = ("pfm", "pfm.gz")
 #: Middlebury file -> WebDataset field, in the order the members are written.
 FIELDS = (("im0.png", "left.png"), ("im1.png", "right.png"), ("disp0GT.pfm", "disp.pfm"),
           ("disp1GT.pfm", "disp_right.pfm"), ("mask0nocc.png", "mask.png"),
-          ("depth0.pfm", "depth.pfm"), ("mask1nocc.png", "mask_right.png"),
+          ("depth0.pfm", "depth.pfm"), ("normals0.pfm", "normals.pfm"),
+          ("instance0.png", "instance.png"), ("semantic0.png", "semantic.png"),
+          ("mask1nocc.png", "mask_right.png"),
           ("calib.txt", "calib.txt"), ("scene.json", "scene.json"), ("sample.json", "sample.json"))
 #: The index of the complete shards, at the dataset's root.
 INDEX = "shards.json"
@@ -95,6 +104,35 @@ def check_shard_option(fmt: str, shard_size: int | None) -> int | None:
     return shard_size
 
 
+def check_disp_encoding(fmt: str, encoding: str | None) -> str | None:
+    """The float-map encoding to use for ``fmt``; an encoding with a format of plain files (which
+    the stereo tools read as ``.pfm``) is refused."""
+    if encoding is None:
+        return None
+    if fmt != "webdataset":
+        raise ParameterError(f"disp_encoding applies to fmt='webdataset' only (tar shards); "
+                             f"fmt={fmt!r} writes the .pfm files the stereo tools read: drop "
+                             "--disp-encoding or use --format webdataset")
+    if encoding not in DISP_ENCODINGS:
+        raise ParameterError(f"disp_encoding: expected one of {', '.join(DISP_ENCODINGS)}, got "
+                             f"{encoding!r}")
+    return None if encoding == "pfm" else encoding
+
+
+def encode_member(field: str, data: bytes, encoding: str | None) -> tuple[str, bytes]:
+    """The shard member (field, bytes) of a sample file's bytes under ``encoding``.
+
+    Examples
+    --------
+    >>> field, data = encode_member("disp.pfm", b"Pf\\n1 1\\n-1\\n\\0\\0\\0\\0", "pfm.gz")
+    >>> field, gzip.decompress(data)
+    ('disp.pfm.gz', b'Pf\\n1 1\\n-1\\n\\x00\\x00\\x00\\x00')
+    """
+    if encoding == "pfm.gz" and field.endswith(".pfm"):
+        return f"{field}.gz", gzip.compress(data, compresslevel=9, mtime=0)
+    return field, data
+
+
 def read_index(root: str | Path) -> list[dict]:
     """The complete shards listed in ``root/shards.json`` (empty when there is none)."""
     path = Path(root) / _INDEX
@@ -134,8 +172,10 @@ class ShardWriter:
     """
 
     def __init__(self, root: Path, staging: Path, shard_size: int, count: int, *,
-                 complete: Callable[[int], bool], forget: Callable[[int], None]) -> None:
+                 complete: Callable[[int], bool], forget: Callable[[int], None],
+                 disp_encoding: str | None = None) -> None:
         self.root, self.staging, self.shard_size = root, staging, shard_size
+        self.disp_encoding = disp_encoding
         self.complete, self.forget = complete, forget
         self.shards = read_index(root)
         last = self.shards[-1] if self.shards else None
@@ -200,8 +240,9 @@ class ShardWriter:
         folder = self.staging / f"{index:06d}"
         for source, field in FIELDS:
             if (folder / source).is_file():
-                data = (folder / source).read_bytes()
-                self._tar.addfile(_member(f"{index:06d}.{field}", data), io.BytesIO(data))
+                name, data = encode_member(field, (folder / source).read_bytes(),
+                                           self.disp_encoding)
+                self._tar.addfile(_member(f"{index:06d}.{name}", data), io.BytesIO(data))
                 self._bytes += len(data)
         self._members.append((index, json.loads((folder / "sample.json").read_text())))
 

@@ -31,6 +31,7 @@ class Mesh:
     name: str
     vertices: np.ndarray  # (n, 8) float32: world position, texcoord (s, t), shade (r, g, b)
     faces: np.ndarray  # (m, 3) uint32
+    normals: np.ndarray  # (n, 3) float32 world-space unit vertex normals
     image: np.ndarray | None  # (h, w, 3 or 4) uint8 RGB(A), row 0 at t = 0
     closed: bool  # closed surface wound counter-clockwise seen from outside: cull back faces
     zmin: float
@@ -120,6 +121,7 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
         name=name,
         vertices=vertices,
         faces=np.ascontiguousarray(f, dtype=np.uint32),
+        normals=np.asarray(m.vertex_normals, dtype=np.float32),
         image=image,
         closed=not m.metadata.get("double_sided", True),
         zmin=float(v[:, 2].min()),
