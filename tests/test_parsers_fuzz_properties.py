@@ -160,10 +160,10 @@ def _dataset_json(data: bytes) -> bool:
 
 
 def _sample_json(data: bytes) -> bool:
-    sample = _WORK / "manifest" / "000000"
+    sample = _WORK / "manifest" / "MiddEval3" / "trainingF" / "000000"
     sample.mkdir(parents=True, exist_ok=True)
     (sample / "sample.json").write_bytes(data)
-    return _only_ours(lambda: read_manifest(sample.parent))
+    return _only_ours(lambda: read_manifest(_WORK / "manifest"))
 
 
 PARSERS = {

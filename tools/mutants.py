@@ -116,8 +116,7 @@ MUTANTS += (
     Mutant(
         "resume trusts a sample folder",
         "src/synth/dataset/run.py",
-        (("todo = [i for i in range(count) if sample_problems(out, i)]",
-          'todo = [i for i in range(count) if not (out / f"{i:06d}").is_dir()]'),),
+        (("if sample_problems(out, fmt, i)]", "if not sample_dir(out, fmt, i).is_dir()]"),),
         "an emptied or truncated sample counts as done (the bug before completion records)",
         _DATASET,
     ),

@@ -12,6 +12,7 @@ The public API, in one place::
 - :func:`write_pair` — a pair in the Middlebury 2014 or KITTI 2015 layout.
 - :func:`run_dataset`, :func:`load_config`, :func:`read_manifest`, :func:`render_from_manifest` —
   deterministic, resumable datasets.
+- :class:`StereoDataset` — a dataset directory as a map-style training dataset (numpy arrays).
 
 Importing ``synth`` imports nothing else: each name is loaded from its module on first use
 (PEP 562), so ``stereoforge --help`` and the dataset command's worker server start without
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
         DatasetError,
         DatasetRun,
         SampleError,
+        StereoDataset,
         load_config,
         read_manifest,
         render_from_manifest,
@@ -61,6 +63,7 @@ _EXPORTS = {
     "Renderer": "synth.render",
     "RigErrors": "synth.camera",
     "SampleError": "synth.dataset",
+    "StereoDataset": "synth.dataset",
     "StereoPair": "synth.pair",
     "StereoRig": "synth.rig",
     "ViewRender": "synth.render",

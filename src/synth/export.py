@@ -356,11 +356,13 @@ def write_pair(
 
 
 def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
-              fmt: str = "middlebury", overwrite: bool = False) -> list[Path]:
+              fmt: str = "middlebury", overwrite: bool = False,
+              ground_truth: Mapping[str, np.ndarray] | None = None) -> list[Path]:
     """Write ``pair`` as the whole folder ``out`` at once (what ``stereoforge render`` does).
 
     :func:`write_pair` into a :func:`staged_output_dir`: after a failure (disk full, ...)
-    ``out`` is as before, never a part of the pair's files.
+    ``out`` is as before, never a part of the pair's files. ``ground_truth``: the optional
+    arrays of :func:`synth.ground_truth.render_ground_truth`, written beside the Middlebury files.
 
     Returns
     -------
@@ -370,4 +372,8 @@ def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
     out = Path(out)
     with staged_output_dir(out, overwrite=overwrite) as stage:
         written = write_pair(pair, stage, scene=scene, seed=seed, fmt=fmt)
+        if ground_truth:
+            from synth.ground_truth import write_ground_truth
+
+            written += write_ground_truth(stage, ground_truth)
     return [out / p.relative_to(stage) for p in written]

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from matcher.io import (
     encode_kitti_disparity,
@@ -102,3 +103,37 @@ def test_calib_cam_to_cam_round_trip(tmp_path):
     assert (p2[0, 3] - p3[0, 3]) / p2[0, 0] == np.float64(721.5377 * 0.5327119) / 721.5377
     np.testing.assert_array_equal(c["S_rect_02"], [W, H])
     np.testing.assert_array_equal(read_image(tmp_path / "obj_map" / "000007_10.png"), obj)
+
+
+@pytest.mark.gl
+def test_devkit_evaluates_a_dataset_directory_as_it_is(kitti_devkit, renderer, tmp_path):
+    """A KITTI dataset written by run_dataset: DIR/training is the devkit's ground-truth folder
+    as it is (the sample folders, header, manifests and records do not disturb it)."""
+    from synth.dataset.config import loads_config
+    from synth.dataset.run import run_dataset
+
+    out = tmp_path / "ds"
+    run_dataset(loads_config("seed = 5\ncount = 2\n[rig]\nwidth = 64\nheight = 48\n[scene]\n"
+                             'base = "boxes"\n'), out=out, fmt="kitti", progress=False)
+    rng = np.random.default_rng(1)
+    ests = {}
+    for i in range(2):
+        gt = load_kitti_2015(out / "training", i).disp_left
+        est = np.where(np.isfinite(gt), np.clip(gt + rng.normal(0, 2.0, gt.shape), 0, 255), np.inf)
+        result = tmp_path / "results" / "sha" / "data" / "disp_0" / f"{i:06d}_10.png"
+        result.parent.mkdir(parents=True, exist_ok=True)
+        result.write_bytes(encode_png(encode_kitti_disparity(est)))
+        ests[i] = read_disparity(result)
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "scene_flow").symlink_to(out / "training")
+    done = subprocess.run([str(kitti_devkit(2)), "sha"], cwd=tmp_path, capture_output=True,
+                          text=True)
+    assert "Couldn't read" not in done.stdout and done.returncode == 0, done.stdout
+    for i, est in ests.items():
+        s = load_kitti_2015(out / "training", i)
+        obj = read_image(out / "training" / "obj_map" / f"{i:06d}_10.png")
+        ours = kitti_2015(est, s.disp_left, occlusion_mask=s.mask_left, obj_map=obj)
+        theirs = [float(v) for v in (tmp_path / "results" / "sha" / "errors_disp_occ_0"
+                                     / f"{i:06d}_10.txt").read_text().split()]
+        np.testing.assert_allclose(theirs[4:6], [_ratio(ours.occ.all), _ratio(ours.occ.all_est)],
+                                   atol=1e-6, err_msg=f"frame {i}")

@@ -133,3 +133,34 @@ def test_computemask_reads_our_pfms(middeval_sdk, tmp_path):
     np.testing.assert_array_equal(theirs == 0, ours == 0)
     assert np.mean(theirs == ours) > 0.97
     assert re.match(r"thresh=1", done.stdout)
+
+
+@pytest.mark.gl
+def test_runeval_walks_a_dataset_directory_as_it_is(middeval_sdk, renderer, tmp_path):
+    """A dataset written by run_dataset: runeval run in DIR/MiddEval3 finds every sample in
+    trainingF/ and nothing else (the header, manifests and records sit outside)."""
+    from matcher.io import read_pfm, write_pfm
+    from synth.dataset.config import loads_config
+    from synth.dataset.run import run_dataset
+
+    out = tmp_path / "ds"
+    run_dataset(loads_config("seed = 2\ncount = 2\n[rig]\nwidth = 64\nheight = 48\n[scene]\n"
+                             'base = "boxes"\n'), out=out, progress=False)
+    root = out / "MiddEval3"
+    rng = np.random.default_rng(0)
+    for scene in sorted((root / "trainingF").iterdir()):
+        gt = read_pfm(scene / "disp0GT.pfm")
+        write_pfm(scene / "disp0Noisy.pfm", np.where(np.isfinite(gt), gt + rng.normal(
+            0, 2.0, gt.shape), np.inf).astype(np.float32))
+    result = subprocess.run(["tcsh", str(middeval_sdk / "runeval"), "-b", "F", "all", "2.0"],
+                            cwd=root, capture_output=True, text=True, check=True).stdout
+    rows = [line.split() for line in result.splitlines()[1:] if line.strip()]
+    assert sorted((r[0], r[1]) for r in rows) == [("000000", "GT"), ("000000", "Noisy"),
+                                                  ("000001", "GT"), ("000001", "Noisy")]
+    for row in rows:
+        if row[1] == "GT":
+            assert [float(v) for v in row[3:]] == [0.0, 0.0, 0.0, 0.0]
+        else:
+            est = read_pfm(root / "trainingF" / row[0] / "disp0Noisy.pfm")
+            _assert_same([float(v) for v in row[2:]],
+                         _ours(est, root / "trainingF" / row[0], "nonocc", 2.0))

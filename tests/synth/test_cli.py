@@ -160,7 +160,7 @@ def test_render_from_manifest_respects_overwrite(tmp_path, renderer):
     assert refused.exit_code == 2 and "--overwrite" in refused.output
     done = _run("render", "--from-manifest", tmp_path / "ds", 0, "--out", out, "--overwrite")
     assert done.exit_code == 0, done.output
-    assert (out / "im0.png").read_bytes() == (tmp_path / "ds" / "000000" / "im0.png").read_bytes()
+    assert (out / "im0.png").read_bytes() == (tmp_path / "ds" / "MiddEval3" / "trainingF" / "000000" / "im0.png").read_bytes()
 
 
 def test_match_reports_the_warm_time_and_the_first_call_apart(tmp_path):

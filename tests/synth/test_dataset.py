@@ -53,12 +53,20 @@ jpeg_quality = {choice = [0, 90]}
 MIDDLEBURY_FILES = {"im0.png", "im1.png", "im1E.png", "im1L.png", "disp0GT.pfm", "disp1GT.pfm",
                     "mask0nocc.png", "calib.txt",
                     "scene.json", "sample.json"}
-RECORD = "files.json"  # the dataset's completion record of a sample (not a sample file)
+RECORDS = "records"  # the samples' completion records, records/NNNNNN.json (not sample files)
+
+
+def _record(root: Path, i: int) -> Path:
+    return root / RECORDS / f"{i:06d}.json"
+
+
+def _sample(root: Path, i: int, fmt: str = "middlebury") -> Path:
+    return root / ("MiddEval3/trainingF" if fmt == "middlebury" else "training/samples") / f"{i:06d}"
 
 
 def _tree(root: Path, *, records: bool = True) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file() and (records or p.name != RECORD)}
+            if p.is_file() and (records or p.relative_to(root).parts[0] != RECORDS)}
 
 
 def _assert_same_tree(a: Path, b: Path, *, records: bool = True) -> None:
@@ -86,11 +94,19 @@ def reference(config_file, tmp_path_factory, renderer) -> Path:
 @pytest.mark.gl
 def test_layout_and_manifest(reference, config_file):
     names = sorted(p.name for p in reference.iterdir())
-    assert names == [".lock", *[f"{i:06d}" for i in range(12)], "dataset.json",
-                     "manifest.csv", "manifest.jsonl"]
+    assert names == [".lock", "MiddEval3", "dataset.json", "manifest.csv", "manifest.jsonl",
+                     RECORDS]
+    assert sorted(p.name for p in (reference / RECORDS).iterdir()) == [
+        f"{i:06d}.json" for i in range(12)]
+    assert sorted(p.name for p in (reference / "MiddEval3").iterdir()) == [
+        "official_train.txt", "trainingF"]
+    scenes = [f"{i:06d}" for i in range(12)]
+    assert sorted(p.name for p in (reference / "MiddEval3" / "trainingF").iterdir()) == scenes
+    assert (reference / "MiddEval3" / "official_train.txt").read_text().splitlines() == scenes
     for i in range(12):
-        assert {p.name for p in (reference / f"{i:06d}").iterdir()} == MIDDLEBURY_FILES | {RECORD}
+        assert {p.name for p in _sample(reference, i).iterdir()} == MIDDLEBURY_FILES
     header = json.loads((reference / "dataset.json").read_text())
+    assert header["layout"] == 2
     cfg = loads_config(CONFIG, source=str(config_file))
     assert header["config_hash"] == cfg.hash() and header["format"] == "middlebury"
     lines = (reference / "manifest.jsonl").read_text().splitlines()
@@ -128,7 +144,7 @@ def test_growing_count_extends_with_the_same_bytes(reference, config_file, tmp_p
     second = run_dataset(config_file, out=out, count=5, workers=1, progress=False)
     assert (second.rendered, second.skipped) == (2, 3)
     for i in range(5):
-        _assert_same_tree(reference / f"{i:06d}", out / f"{i:06d}")
+        _assert_same_tree(_sample(reference, i), _sample(out, i))
     assert [r["index"] for r in read_manifest(out)] == list(range(5))
 
 
@@ -136,7 +152,7 @@ def test_growing_count_extends_with_the_same_bytes(reference, config_file, tmp_p
 def test_render_from_manifest_reproduces_a_sample(reference, tmp_path):
     files = render_from_manifest(reference, 7, out=tmp_path / "one")
     assert {f.name for f in files} == MIDDLEBURY_FILES
-    _assert_same_tree(reference / "000007", tmp_path / "one", records=False)
+    _assert_same_tree(_sample(reference, 7), tmp_path / "one")
 
 
 def test_another_config_or_format_is_refused(config_file, tmp_path):
@@ -206,8 +222,10 @@ def test_a_failing_sample_leaves_no_files_and_names_its_index_and_seed(tmp_path,
         run_dataset(cfg, out=out, workers=1, progress=False)
     assert "far" in str(e.value) and "render_from_manifest" in str(e.value)
     names = sorted(p.name for p in out.iterdir())
-    assert names == [".lock", *[f"{i:06d}" for i in range(bad)], "dataset.json",
-                     "manifest.csv", "manifest.jsonl"]
+    assert names == [".lock", "MiddEval3", "dataset.json", "manifest.csv", "manifest.jsonl",
+                     RECORDS]
+    assert sorted(p.name for p in (out / "MiddEval3" / "trainingF").iterdir()) == [
+        f"{i:06d}" for i in range(bad)]
     assert len(read_manifest(out)) == bad
     with pytest.raises(SampleError, match=rf"sample {bad} \(seed {sample_seed(11, bad)}\)"):
         render_from_manifest(out, bad, out=tmp_path / "again")
@@ -223,7 +241,10 @@ def test_kitti_layout(config_file, tmp_path, renderer):
                                                                               "000001_10.png"]
     assert sorted(p.name for p in (out / "training" / "calib_cam_to_cam").iterdir()) == [
         "000000.txt", "000001.txt"]
-    assert {p.name for p in (out / "000001").iterdir()} == {"scene.json", "sample.json", RECORD}
+    assert {p.name for p in _sample(out, 1, "kitti").iterdir()} == {"scene.json", "sample.json"}
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "dataset.json", "manifest.csv",
+                                                     "manifest.jsonl", RECORDS, "training"]
+    assert [r["index"] for r in read_manifest(out)] == [0, 1]
     files = render_from_manifest(out, 1, out=tmp_path / "one")
     assert sorted(str(f.relative_to(tmp_path / "one")) for f in files) == sorted(
         [f"training/{s}/000001_10.png" for s in subs]
@@ -247,8 +268,9 @@ if __name__ == "__main__":
 
 
 def _complete(out: Path) -> list[str]:
-    return sorted(p.name for p in out.iterdir() if p.is_dir() and p.name.isdigit()) \
-        if out.exists() else []
+    parent = out / "MiddEval3" / "trainingF"
+    return sorted(p.name for p in parent.iterdir() if p.is_dir() and p.name.isdigit()) \
+        if parent.exists() else []
 
 
 def _interrupt(config_file: Path, out: Path, tmp_path: Path, *, workers: int, sig: int) -> None:
@@ -274,7 +296,7 @@ def _interrupt(config_file: Path, out: Path, tmp_path: Path, *, workers: int, si
     done = _complete(out)
     assert 3 <= len(done) < 12, done  # killed mid-way
     for name in done:  # every sample directory present is complete
-        assert {p.name for p in (out / name).iterdir()} == MIDDLEBURY_FILES | {RECORD}
+        assert {p.name for p in (out / "MiddEval3" / "trainingF" / name).iterdir()} == MIDDLEBURY_FILES
 
 
 @pytest.mark.gl
@@ -348,17 +370,21 @@ def test_resume_renders_again_an_emptied_folder_and_a_truncated_file(reference, 
     from synth.dataset.integrity import verify_dataset
 
     out = _copy(reference, tmp_path / "ds")
-    for f in (out / "000003").iterdir():
+    for f in _sample(out, 3).iterdir():
         f.unlink()  # an emptied sample folder: used to count as done, a hole in the manifest
-    image = out / "000005" / "im0.png"
+    image = _sample(out, 5) / "im0.png"
     image.write_bytes(image.read_bytes()[:1000])  # a truncated image: used to be kept
-    (out / "000008" / RECORD).unlink()  # no completion record: not done
+    _record(out, 8).unlink()  # no completion record: not done
     problems = verify_dataset(out)
-    size = (reference / "000005" / "im0.png").stat().st_size
-    assert problems[:3] == [
-        f"000003: no completion record ({RECORD}); the sample is incomplete",
-        f"000005/im0.png: 1000 bytes, its record says {size} bytes (truncated or replaced)",
-        f"000008: no completion record ({RECORD}); the sample is incomplete"], problems
+    size = (_sample(reference, 5) / "im0.png").stat().st_size
+    assert problems[:2] == [
+        "MiddEval3/trainingF/000003/calib.txt: missing (listed in records/000003.json)",
+        "MiddEval3/trainingF/000003/disp0GT.pfm: missing (listed in records/000003.json)",
+    ], problems
+    assert f"MiddEval3/trainingF/000005/im0.png: 1000 bytes, its record says {size} bytes " \
+        "(truncated or replaced)" in problems
+    assert "000008: no completion record (records/000008.json); the sample is incomplete" \
+        in problems
     run = run_dataset(config_file, out=out, workers=1, progress=False)
     assert (run.rendered, run.skipped) == (3, 9)
     _assert_same_tree(reference, out)
@@ -371,27 +397,29 @@ def test_same_size_corruption_is_left_to_verify(reference, config_file, tmp_path
     from synth.dataset.integrity import verify_dataset
 
     out = _copy(reference, tmp_path / "ds")
-    disp = out / "000002" / "disp0GT.pfm"
+    disp = _sample(out, 2) / "disp0GT.pfm"
     data = bytearray(disp.read_bytes())
     data[-1] ^= 0xFF
     disp.write_bytes(bytes(data))
-    (out / "000004" / "notes.txt").write_text("mine")
+    (_sample(out, 4) / "notes.txt").write_text("mine")
     (out / "stray.bin").write_bytes(b"x")
     (out / ".000007.tmp-123").mkdir()
     import shutil
 
-    shutil.rmtree(out / "000006")
+    shutil.rmtree(_sample(out, 6))
+    _record(out, 6).unlink()
     assert run_dataset(config_file, out=out, count=3, progress=False).rendered == 0
     assert verify_dataset(out, checksums=False) == [
-        "000004/notes.txt: extra file (not in 000004/files.json)",
         "000006: missing (a hole: the dataset has samples after it)",
+        "MiddEval3/trainingF/000004/notes.txt: extra file (no sample's record lists it)",
         "stray.bin: extra file"]  # the stale .tmp dir was removed by the run
     problems = verify_dataset(out, count=14)
     assert problems == [
-        "000002/disp0GT.pfm: SHA-256 differs from its record (corrupt)",
-        "000004/notes.txt: extra file (not in 000004/files.json)",
+        "MiddEval3/trainingF/000002/disp0GT.pfm: SHA-256 differs from its record (corrupt)",
         "000006: missing (count is 14)", "000012: missing (count is 14)",
-        "000013: missing (count is 14)", "stray.bin: extra file"]
+        "000013: missing (count is 14)",
+        "MiddEval3/trainingF/000004/notes.txt: extra file (no sample's record lists it)",
+        "stray.bin: extra file"]
     from click.testing import CliRunner
 
     from synth.cli import main as cli
@@ -449,11 +477,12 @@ def test_kitti_records_list_the_images_outside_the_sample_folder(config_file, tm
 
     out = tmp_path / "kitti"
     run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
-    record = json.loads((out / "000001" / RECORD).read_text())
+    record = json.loads(_record(out, 1).read_text())
     assert sorted(record["files"]) == sorted(
         [f"training/{s}/000001_10.png"
          for s in ("image_2", "image_3", "disp_occ_0", "disp_noc_0", "obj_map")]
-        + ["training/calib_cam_to_cam/000001.txt", "000001/scene.json", "000001/sample.json"])
+        + ["training/calib_cam_to_cam/000001.txt", "training/samples/000001/scene.json",
+           "training/samples/000001/sample.json"])
     clean = _tree(out)
     image = out / "training" / "image_3" / "000001_10.png"
     image.write_bytes(image.read_bytes()[:100])
@@ -466,3 +495,59 @@ def test_kitti_records_list_the_images_outside_the_sample_folder(config_file, tm
     run = run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
     assert (run.rendered, run.skipped) == (1, 1)
     assert _tree(out) == clean
+
+
+# --------------------------------------------------------------------------- layout 1 -> 2
+def _to_layout_1(src: Path, dst: Path) -> None:
+    """``src`` (layout 2) as stereoforge wrote it before: sample folders at the root, each with
+    its completion record ``files.json`` inside."""
+    import shutil
+
+    shutil.copytree(src, dst)
+    for d in sorted((dst / "MiddEval3" / "trainingF").iterdir()):
+        os.replace(d, dst / d.name)
+        record = json.loads((dst / RECORDS / f"{d.name}.json").read_text())  # files.json inside
+        record["files"] = {k.removeprefix("MiddEval3/trainingF/"): v
+                           for k, v in record["files"].items()}
+        (dst / d.name / "files.json").write_text(json.dumps(record, indent=2, sort_keys=True)
+                                                 + "\n")
+    shutil.rmtree(dst / "MiddEval3")
+    shutil.rmtree(dst / RECORDS)
+    header = json.loads((dst / "dataset.json").read_text())
+    del header["layout"]
+    (dst / "dataset.json").write_text(json.dumps(header, indent=2, sort_keys=True) + "\n")
+
+
+@pytest.mark.gl
+def test_a_layout_1_dataset_is_refused_then_upgraded_to_the_same_bytes(reference, config_file,
+                                                                         tmp_path):
+    from click.testing import CliRunner
+
+    from synth.cli import main
+    from synth.dataset.layout import upgrade_dataset
+
+    old = tmp_path / "old"
+    _to_layout_1(reference, old)
+    for call in (lambda: run_dataset(config_file, out=old, progress=False),
+                 lambda: read_manifest(old),
+                 lambda: render_from_manifest(old, 1, out=tmp_path / "one")):
+        with pytest.raises(DatasetError, match=rf"previous layout .*`stereoforge dataset "
+                                               rf"--upgrade {old}`"):
+            call()
+    refused = CliRunner().invoke(main, ["dataset", str(config_file), "--out", str(old)])
+    assert refused.exit_code != 0
+    assert refused.output.strip().splitlines()[-1].startswith("Error: ")
+    assert f"stereoforge dataset --upgrade {old}" in refused.output
+    assert "Traceback" not in refused.output
+    # an upgrade interrupted after moving 5 samples: the rerun finishes it
+    (old / "MiddEval3" / "trainingF").mkdir(parents=True)
+    for i in range(5):
+        os.replace(old / f"{i:06d}", _sample(old, i))
+    done = CliRunner().invoke(main, ["dataset", "--upgrade", str(old)])
+    assert done.exit_code == 0, done.output
+    assert "7 sample folders moved" in done.output
+    _assert_same_tree(reference, old)
+    assert upgrade_dataset(old) == 0  # idempotent
+    again = run_dataset(config_file, out=old, progress=False)
+    assert (again.rendered, again.skipped) == (0, 12)
+    _assert_same_tree(reference, old)

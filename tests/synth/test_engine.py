@@ -169,7 +169,8 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
                            "far = 5.0\n[scene]\nbase = 'flying'\n")
         with pytest.raises(SampleError, match=r"sample \d \(seed \d+\) failed: ValueError"):
             run_dataset(bad, out=tmp_path / "bad", workers=2, engine="ray", progress=False)
-        assert not [p for p in (tmp_path / "bad").iterdir() if p.name[0].isdigit()]
+        assert not list((tmp_path / "bad").glob("MiddEval3/trainingF/*"))
+        assert not [p for p in (tmp_path / "bad").iterdir() if ".tmp-" in p.name]
     finally:
         ray.shutdown()
     local, remote = tmp_path / "local", tmp_path / "ray"

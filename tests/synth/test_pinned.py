@@ -69,7 +69,7 @@ def tiny(request, tmp_path_factory, renderer) -> Path:
 @pytest.mark.gl
 def test_calib_txt_written_by_dataset(tiny):
     for i in range(4):
-        _check_calib(tiny / f"{i:06d}")
+        _check_calib(tiny / "MiddEval3" / "trainingF" / f"{i:06d}")
 
 
 @pytest.mark.gl
@@ -90,9 +90,10 @@ def test_calib_txt_written_by_render(tmp_path, renderer):
 def test_manifest_statistics_equal_the_files(tiny):
     records = read_manifest(tiny)
     assert len(records) == 4 and {r["params"]["scene.base"] for r in records} != set()
-    fx = json.loads((tiny / "000000" / "scene.json").read_text())["rig"]["fx"]
+    scenes = tiny / "MiddEval3" / "trainingF"
+    fx = json.loads((scenes / "000000" / "scene.json").read_text())["rig"]["fx"]
     for r in records:
-        folder = tiny / r["dir"]
+        folder = scenes / r["dir"]
         disp, mask = read_pfm(folder / "disp0GT.pfm"), read_image(folder / "mask0nocc.png")
         finite = disp[np.isfinite(disp)]
         s = r["stats"]

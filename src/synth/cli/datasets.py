@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
-from synth.cli.options import backend_option, engine_option, format_option, out_dir_option, workers_option
+from synth.cli.options import LazyChoice, backend_option, engine_option, out_dir_option, workers_option
 
 __all__ = ["dataset"]
 
@@ -19,19 +21,42 @@ __all__ = ["dataset"]
 @workers_option
 @engine_option
 @click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
-@format_option
+@click.option("--format", "fmt", default="middlebury", show_default=True,
+              type=LazyChoice("synth.formats:DATASET_FORMATS"),
+              help="Sample folders (middlebury, kitti) or tar shards (webdataset).")
+@click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
+              help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
+@click.option("--disp-encoding", "disp_encoding", default=None,
+              type=LazyChoice("synth.dataset.shards:DISP_ENCODINGS"),
+              help="How --format webdataset stores disparities and depth: pfm, or pfm.gz "
+                   "(gzip, lossless) [default: pfm].")
 @backend_option
 @click.option("--verify", "verify_dir", default=None, metavar="DIR",
               help="Check the dataset in DIR (a folder or an fsspec URL) instead (sizes and "
                    "SHA-256 of every file against the samples' records; holes up to --count; extra files; the manifest): one "
                    "line per problem, exit 1 if any.")
-def dataset(config, out, count, workers, engine, address, fmt, backend, verify_dir) -> None:
-    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), or check
-    one with --verify DIR.
+@click.option("--upgrade", "upgrade", default=None, metavar="DIR",
+              type=click.Path(exists=True, file_okay=False, path_type=Path),
+              help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
+                   "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
+                   "no CONFIG.")
+def dataset(config, out, count, workers, engine, address, fmt, shard_size, disp_encoding,
+            backend, verify_dir, upgrade) -> None:
+    """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
+    one with --verify DIR, or convert one of the previous layout with --upgrade DIR.
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
+    if upgrade is not None:
+        if config is not None or out is not None or verify_dir is not None:
+            raise click.UsageError("--upgrade DIR converts DIR in place: drop CONFIG, --out and "
+                                   "--verify")
+        from synth.dataset.layout import upgrade_dataset
+
+        moved = upgrade_dataset(upgrade)
+        click.echo(f"{upgrade}: {moved} sample folders moved; layout is current")
+        return
     if verify_dir is not None:
         if config is not None:
             raise click.UsageError("--verify DIR checks an existing dataset: drop CONFIG")
@@ -45,8 +70,16 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, verify_d
         raise SystemExit(1 if problems else 0)
     if config is None or out is None:
         raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
-                               "--out DIR, or --verify DIR" if config is None else
+                               "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
+    if shard_size is not None:  # refused with a format without shards, before any work
+        from synth.dataset.shards import check_shard_option, parse_size
+
+        shard_size = check_shard_option(fmt, parse_size(shard_size))
+    if disp_encoding is not None:
+        from synth.dataset.shards import check_disp_encoding
+
+        disp_encoding = check_disp_encoding(fmt, disp_encoding)
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 
@@ -55,6 +88,7 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, verify_d
 
     # a failed sample (SampleError, exit 1) names its index and how to reproduce it alone
     run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
-                      address=address, fmt=fmt, progress=True, backend=backend)
+                      address=address, fmt=fmt, progress=True, backend=backend,
+                      shard_size=shard_size, disp_encoding=disp_encoding)
     click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
                f"there, {run.seconds:.1f} s")

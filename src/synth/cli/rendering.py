@@ -48,8 +48,11 @@ def presets() -> None:
 @click.option("--lighting-variant", "relight", default=None, type=float, metavar="DEGREES",
               help="Write im1L.png: the right view rendered again with every light direction "
                    "turned by DEGREES (Middlebury layout).")
+@click.option("--ground-truth", "ground_truth", default=None, metavar="KINDS",
+              help="Also write optional ground truth, comma-separated: depth, normals, instance, "
+                   "semantic, occlusion_right (Middlebury format; see docs/datasets.md).")
 def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrite,
-           from_manifest, exposure, relight) -> None:
+           from_manifest, exposure, relight, ground_truth) -> None:
     """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
     from synth import StereoRig, render_pair
     from synth.export import resolve_scene, save_pair
@@ -65,6 +68,14 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         return
     if scene is None:
         fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
+    kinds = ()
+    if ground_truth is not None:  # checked before any work
+        from synth.ground_truth import check_ground_truth
+
+        kinds = check_ground_truth(ground_truth, where="--ground-truth")
+        if kinds and fmt == "kitti":
+            fail(ValueError("--ground-truth has no place in the KITTI 2015 layout; use "
+                            "--format middlebury or drop --ground-truth"))
     spec, seed = resolve_scene(scene, seed=seed)
     rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
     lighting = None
@@ -76,9 +87,18 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
 
         light, lamps = turn_lights(spec, relight, np.random.default_rng(seed))
         lighting = dataclasses.replace(spec, light=light, lamps=lamps)
-    # validates before anything is written
-    pair = render_pair(spec, rig, backend=backend, exposure=exposure, lighting=lighting)
-    written = save_pair(pair, out, scene=spec, seed=seed, fmt=fmt, overwrite=overwrite)
+    extra = None
+    if kinds:
+        from synth.ground_truth import render_ground_truth
+        from synth.render import Renderer
+
+        with Renderer(rig.width, rig.height, backend=backend) as renderer:
+            pair = render_pair(spec, rig, renderer=renderer, exposure=exposure, lighting=lighting)
+            extra = render_ground_truth(pair, spec, kinds, renderer=renderer)
+    else:  # validates before anything is written
+        pair = render_pair(spec, rig, backend=backend, exposure=exposure, lighting=lighting)
+    written = save_pair(pair, out, scene=spec, seed=seed, fmt=fmt, overwrite=overwrite,
+                        ground_truth=extra)
     click.echo(f"wrote {len(written)} files to {out}")
 
 

@@ -6,6 +6,8 @@
 - :mod:`synth.dataset.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
 - :mod:`synth.dataset.storage` — folders and fsspec URLs; the commit of returned samples.
 - :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
+- :mod:`synth.dataset.layout` — where the sample folders live; the upgrade of the previous layout.
+- :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
 - :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
   and the texture-versus-window study).
@@ -30,6 +32,7 @@ if TYPE_CHECKING:
         loads_config,
     )
     from synth.dataset.engine import ENGINES
+    from synth.dataset.loader import StereoDataset
     from synth.dataset.run import (
         DatasetError,
         DatasetRun,
@@ -47,6 +50,7 @@ _EXPORTS = {
     "DatasetRun": "synth.dataset.run",
     "ENGINES": "synth.dataset.engine",
     "SampleError": "synth.dataset.run",
+    "StereoDataset": "synth.dataset.loader",
     "config_from_dict": "synth.dataset.config",
     "list_examples": "synth.dataset.config",
     "load_config": "synth.dataset.config",

@@ -66,6 +66,8 @@ _DISTORTION = ("k1", "k2", "p1", "p2", "k3")
 #: The ``[rig]`` keys of the ideal rig (always written by :meth:`DatasetConfig.to_dict`).
 _IDEAL_RIG = ("width", "height", "fx", "baseline", "near", "far")
 _OCCLUDER_KINDS = ("box", "sphere", "cylinder")
+# synth.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they agree)
+_GROUND_TRUTH = ("depth", "normals", "instance", "semantic", "occlusion_right")
 
 #: Every section, key and its schema (``""`` is the top level).
 SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
@@ -74,6 +76,8 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "seed": Key("int", 0, lo=0, hi=_MAX_SEED - 1, doc="dataset seed"),
         "count": Key("int", 10, lo=1, hi=999_999, doc="number of samples"),
         "preview": Key("bool", False, doc="also write preview.png per sample"),
+        "ground_truth": Key("str", None, choices=_GROUND_TRUTH, array=True, distinct=True,
+                            doc="optional ground truth to write too (see synth.ground_truth)"),
     },
     "rig": {
         "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),
@@ -216,6 +220,9 @@ class DatasetConfig:
         Number of samples (``run_dataset(count=...)`` overrides it).
     preview : bool
     rig : StereoRig
+    ground_truth : tuple of str
+        Optional ground truth written with each sample (``synth.ground_truth.GROUND_TRUTH``;
+        empty by default).
     scene, photometric : Mapping[str, Dist]
         Every key of the section (defaults filled in as fixed values; optional keys left unset
         are absent).
@@ -237,6 +244,7 @@ class DatasetConfig:
     scene: Mapping[str, Dist]
     photometric: Mapping[str, Dist]
     source: str = field(default="<string>", compare=False)
+    ground_truth: tuple[str, ...] = ()
 
     def to_dict(self, *, with_count: bool = True) -> dict[str, Any]:
         """Canonical plain dict (the TOML structure, defaults filled in)."""
@@ -247,6 +255,8 @@ class DatasetConfig:
                                "scene": {k: d.to_toml() for k, d in sorted(self.scene.items())},
                                "photometric": {k: d.to_toml()
                                                for k, d in sorted(self.photometric.items())}}
+        if self.ground_truth:  # absent by default: the hash of a config without it is unchanged
+            out["ground_truth"] = list(self.ground_truth)
         if with_count:
             out["count"] = self.count
         return out
@@ -336,7 +346,11 @@ class _Parser:
                 raise self.fail("", key, f"a table [{key}]", describe(value))
         self.keys(data, "", [*SCHEMA[""], *tables],
                   fix=f"the tables are {', '.join(f'[{t}]' for t in tables)}")
-        top = {k: self.scalar("", k, v) for k, v in data.items() if k in SCHEMA[""]}
+        top = {k: self.scalar("", k, v) for k, v in data.items()
+               if k in SCHEMA[""] and not SCHEMA[""][k].array}
+        if "ground_truth" in data:  # an array key
+            top["ground_truth"] = self.toml.check(SCHEMA[""]["ground_truth"],
+                                                  data["ground_truth"], ("ground_truth",))
         name = top.get("name", Path(self.source).stem if self.source != "<string>" else "dataset")
         rig_kw = {k: self.scalar("rig", k, v)
                   for k, v in self.section(data.get("rig", {}), "rig").items()}
@@ -380,6 +394,7 @@ class _Parser:
             preview=top.get("preview", False), rig=rig,
             scene=MappingProxyType(scene), photometric=MappingProxyType(sections["photometric"]),
             source=self.source,
+            ground_truth=tuple(k for k in _GROUND_TRUTH if k in (top.get("ground_truth") or ())),
         )
 
 

@@ -1,12 +1,14 @@
 """Completion records of dataset samples, and the check of a whole dataset against them.
 
-A sample is complete when its record ``NNNNNN/files.json`` exists and every file it lists has
-the listed size (and, when checked, SHA-256). The record is written last, inside the sample's
-temporary directory, which the final rename puts into place: it never lists a file that was not
-fully written. Paths in a record are relative to the dataset directory (``000003/im0.png``; the
-KITTI layout keeps its images outside the sample directory: ``training/image_2/000003_10.png``)::
+A sample is complete when its record ``records/NNNNNN.json`` exists and every file it lists has
+the listed size (and, when checked, SHA-256). The record is written last, once the sample's
+temporary directory has been renamed into place: it never lists a file that was not fully
+written. It sits outside the folders the stereo tools read (:mod:`synth.dataset.layout`). Paths
+in a record are relative to the dataset directory (``MiddEval3/trainingF/000003/im0.png``; the
+KITTI layout: ``training/image_2/000003_10.png``, ``training/samples/000003/scene.json``)::
 
-    {"files": {"000003/calib.txt": {"bytes": 190, "sha256": "9f1c..."}, ...}, "index": 3}
+    {"files": {"MiddEval3/trainingF/000003/calib.txt": {"bytes": 190, "sha256": "9f1c..."}, ...},
+     "index": 3}
 
 A resumed run checks sizes (cheap: one ``stat`` per file) and renders again every sample whose
 record is missing, unreadable or contradicted; :func:`verify_dataset` (``stereoforge dataset
@@ -15,32 +17,45 @@ record is missing, unreadable or contradicted; :func:`verify_dataset` (``stereof
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 from collections.abc import Iterable
 from pathlib import Path
 
-from synth.dataset.manifest import SAMPLE_DIR, manifest_bytes, read_manifest
-from synth.dataset.storage import FsPath, dataset_path
+from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
+                                  STAGING, check_layout, dataset_format, record_path, sample_dir,
+                                  sample_parent)
+from synth.dataset.manifest import manifest_bytes, read_manifest
+from synth.dataset.shards import read_index, sha256
+from synth.dataset.storage import dataset_path
 from synth.formats import KITTI_ROOT
 
-__all__ = ["RECORD", "completion_record", "sample_problems", "verify_dataset"]
+__all__ = ["completion_record", "sample_problems", "verify_dataset"]
 
-#: Name of the completion record inside a sample directory.
-RECORD = "files.json"
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
-_TOP_FILES = ("dataset.json", "manifest.jsonl", "manifest.csv", ".lock")
 
 
-def _sha256(path: Path | FsPath) -> str:
-    with path.open("rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
+#: The folder of each format that holds every file of its samples (and nothing else).
+_TOOLS_ROOT = {"middlebury": MIDDEVAL_ROOT, "kitti": KITTI_ROOT, "webdataset": STAGING}
+
+
+def _shard_problems(root: Path, shards: list[dict], checksums: bool) -> list[str]:
+    problems = []
+    for s in shards:
+        path = root / str(s.get("name"))
+        if not path.is_file():
+            problems.append(f"{path.name}: missing (listed in shards.json)")
+        elif path.stat().st_size != s.get("bytes"):
+            problems.append(f"{path.name}: {path.stat().st_size} bytes, shards.json says "
+                            f"{s.get('bytes')} bytes (truncated or replaced)")
+        elif checksums and sha256(path) != s.get("sha256"):
+            problems.append(f"{path.name}: SHA-256 differs from shards.json (corrupt)")
+    return problems
 
 
 def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
     """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs."""
-    entries = {name: {"bytes": path.stat().st_size, "sha256": _sha256(path)}
+    entries = {name: {"bytes": path.stat().st_size, "sha256": sha256(path)}
                for name, path in sorted(files)}
     return (json.dumps({"files": entries, "index": index}, indent=2, sort_keys=True)
             + "\n").encode()
@@ -48,7 +63,7 @@ def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
 
 def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:
     """The files a sample's record lists, or ``None`` and why there is no usable record."""
-    path = root / f"{index:06d}" / RECORD
+    path = record_path(root, index)
     try:
         record = json.loads(path.read_bytes())
         files = record["files"]
@@ -57,19 +72,20 @@ def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:
                 and isinstance(e.get("sha256"), str) for e in files.values()):
             raise ValueError("unexpected content")
     except FileNotFoundError:
-        return None, f"{path.parent.name}: no completion record ({RECORD}); the sample is " \
-                     "incomplete"
+        return None, f"{index:06d}: no completion record ({RECORDS}/{path.name}); the sample " \
+                     "is incomplete"
     except (OSError, ValueError, KeyError, TypeError) as exc:
         return None, f"{path}: unreadable completion record ({type(exc).__name__}: {exc})"
     return files, None
 
 
-def sample_problems(root: Path, index: int, *, checksums: bool = False) -> list[str]:
-    """What is wrong with sample ``index`` of the dataset in ``root`` (empty: complete).
+def sample_problems(root: Path, fmt: str, index: int, *, checksums: bool = False) -> list[str]:
+    """What is wrong with sample ``index`` of the dataset of format ``fmt`` in ``root`` (empty:
+    complete).
 
     Sizes are always checked; the SHA-256 of every file too when ``checksums``.
     """
-    if not (root / f"{index:06d}").is_dir():
+    if not sample_dir(root, fmt, index).is_dir():
         return [f"{index:06d}: missing"]
     files, why = _listed(root, index)
     if files is None:
@@ -80,12 +96,12 @@ def sample_problems(root: Path, index: int, *, checksums: bool = False) -> list[
         try:
             size = path.stat().st_size
         except OSError:
-            problems.append(f"{name}: missing (listed in {index:06d}/{RECORD})")
+            problems.append(f"{name}: missing (listed in {RECORDS}/{index:06d}.json)")
             continue
         if size != entry["bytes"]:
             problems.append(f"{name}: {size} bytes, its record says {entry['bytes']} bytes "
                             "(truncated or replaced)")
-        elif checksums and _sha256(path) != entry["sha256"]:
+        elif checksums and sha256(path) != entry["sha256"]:
             problems.append(f"{name}: SHA-256 differs from its record (corrupt)")
     return problems
 
@@ -113,32 +129,48 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
     root = dataset_path(dataset_dir)  # a folder or an fsspec URL (synth.dataset.storage)
     if not (root / "dataset.json").is_file():
         return [f"{root}: no dataset.json; not a dataset directory (made by run_dataset)"]
-    present = sorted(int(d.name) for d in root.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name))
+    check_layout(root)  # the previous layout: one error naming `stereoforge dataset --upgrade`
+    fmt = dataset_format(root)
+    parent = sample_parent(root, fmt)
+    folders = {int(d.name) for d in parent.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name)} \
+        if parent.is_dir() else set()
+    shards = read_index(root) if fmt == "webdataset" else []
+    packed = {int(r["index"]) for s in shards for r in s["records"]}
+    present = sorted(folders | packed)
     last = max(present, default=-1) if count is None else count - 1
-    problems: list[str] = []
+    problems: list[str] = _shard_problems(root, shards, checksums)
     listed: set[str] = set()
     for index in sorted(set(range(last + 1)) | set(present)):
-        found = sample_problems(root, index, checksums=checksums)
+        if index in packed and index not in folders:
+            continue  # in a complete shard, checked above
+        found = sample_problems(root, fmt, index, checksums=checksums)
         if found == [f"{index:06d}: missing"]:
             found = [f"{index:06d}: missing (a hole: the dataset has samples after it)"
                      if count is None else f"{index:06d}: missing (count is {count})"]
         problems += found
-        files, _ = _listed(root, index) if index in present else (None, None)
-        names = set(files or ())
-        listed |= names
-        if files is not None:
-            folder = root / f"{index:06d}"
-            problems += [f"{p.relative_to(root)}: extra file (not in {index:06d}/{RECORD})"
-                         for p in sorted(folder.rglob("*")) if p.is_file() and p.name != RECORD
-                         and str(p.relative_to(root)) not in names]
-    if (root / KITTI_ROOT).is_dir():  # the KITTI layout's images, beside the sample directories
+        files, _ = _listed(root, index) if index in folders else (None, None)
+        listed |= set(files or ())
+        if files is None and index in folders:  # reported above; its files are not extra
+            folder = sample_dir(root, fmt, index)
+            listed |= {p.relative_to(root).as_posix() for p in folder.rglob("*")}
+    if fmt == "middlebury":
+        listed.add(f"{MIDDEVAL_ROOT}/{SCENE_LIST}")
+    tools_root = root / _TOOLS_ROOT[fmt]
+    if tools_root.is_dir():  # every file under the tools' folder belongs to a sample's record
         problems += [f"{rel}: extra file (no sample's record lists it)"
-                     for rel in (str(p.relative_to(root))
-                                 for p in sorted((root / KITTI_ROOT).rglob("*")) if p.is_file())
+                     for rel in (p.relative_to(root).as_posix()
+                                 for p in sorted(tools_root.rglob("*")) if p.is_file())
                      if rel not in listed]
+    if (root / RECORDS).is_dir():
+        problems += [f"{RECORDS}/{p.name}: record of no sample folder (sample "
+                     f"{p.stem} is missing)" if SAMPLE_DIR.match(p.stem) and p.suffix == ".json"
+                     else f"{RECORDS}/{p.name}: extra file"
+                     for p in sorted((root / RECORDS).iterdir())
+                     if not (SAMPLE_DIR.match(p.stem) and p.suffix == ".json"
+                             and int(p.stem) in folders)]
     for entry in sorted(root.iterdir()):
-        if entry.name in _TOP_FILES or SAMPLE_DIR.match(entry.name) or (
-                entry.name == KITTI_ROOT and entry.is_dir()):
+        if entry.name in METADATA or (entry.is_dir() and entry.name in (
+                RECORDS, tools_root.name)) or entry.name in {s["name"] for s in shards}:
             continue
         if _TMP_DIR.match(entry.name):
             problems.append(f"{entry.name}: stale temporary directory of an interrupted run "
@@ -151,4 +183,10 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
         if not path.is_file() or path.read_bytes() != want:
             problems.append(f"{name}: does not match the samples' sample.json (rerun the "
                             "dataset command to rewrite it)")
+    if fmt == "middlebury":
+        scenes = root / MIDDEVAL_ROOT / SCENE_LIST
+        want = "".join(f"{r['dir']}\n" for r in read_manifest(root))
+        if not scenes.is_file() or scenes.read_text() != want:
+            problems.append(f"{MIDDEVAL_ROOT}/{SCENE_LIST}: does not list the complete samples "
+                            "(rerun the dataset command to rewrite it)")
     return problems

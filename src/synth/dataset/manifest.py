@@ -9,17 +9,15 @@ from __future__ import annotations
 import csv
 import io
 import json
-import re
 from pathlib import Path
 from typing import Any
 
 from synth._json import read_json_object
-from synth.dataset.storage import dataset_path
+from synth.dataset.layout import SAMPLE_DIR, sample_dirs
+from synth.dataset.shards import packed_records
 
 __all__ = ["MODIFIED_FIX", "SAMPLE_DIR", "read_manifest", "manifest_bytes"]
 
-#: Name of a sample directory: its index on six digits.
-SAMPLE_DIR = re.compile(r"^\d{6}$")
 #: The fix named by every error about a damaged dataset file.
 MODIFIED_FIX = ("the dataset directory was modified or was not made by stereoforge; delete the "
                 "damaged file's sample folder (or the whole directory) and run again")
@@ -27,7 +25,9 @@ _RECORD_KEYS = {"index": int, "seed": int, "dir": str, "params": dict, "stats": 
 
 
 def read_manifest(dataset_dir: str | Path) -> list[dict]:
-    """Records of the samples of a dataset, sorted by index (from ``NNNNNN/sample.json``).
+    """Records of the samples of a dataset, sorted by index (from each sample folder's ``sample.json``).
+
+    Raises :exc:`~stereoforge.errors.DatasetError` on a dataset of the previous layout.
 
     Examples
     --------
@@ -35,12 +35,9 @@ def read_manifest(dataset_dir: str | Path) -> list[dict]:
     >>> read_manifest(tempfile.mkdtemp())
     []
     """
-    root = dataset_path(dataset_dir)  # a folder or an fsspec URL
-    records = []
-    for d in root.iterdir():
-        if d.is_dir() and SAMPLE_DIR.match(d.name) and (d / "sample.json").is_file():
-            records.append(read_json_object(d / "sample.json", what="sample record",
-                                            keys=_RECORD_KEYS, fix=MODIFIED_FIX))
+    records = [read_json_object(d / "sample.json", what="sample record", keys=_RECORD_KEYS,
+                                fix=MODIFIED_FIX) for d in sample_dirs(dataset_dir)]
+    records += packed_records(dataset_dir)  # --format webdataset: the samples in complete shards
     return sorted(records, key=lambda r: r["index"])
 
 

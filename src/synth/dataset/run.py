@@ -5,9 +5,10 @@ Layout of a dataset directory ``out/``::
     dataset.json        configuration (canonical), its hash, format, Canny settings
     manifest.jsonl      one JSON record per complete sample, sorted by index
     manifest.csv        the same records, flattened (``params.*``, ``stats.*`` columns)
-    000000/             sample 0: im0.png im1.png disp0.pfm disp1.pfm mask0nocc.png calib.txt
-                        scene.json sample.json [preview.png] files.json  (fmt="middlebury")
-    000000/             scene.json sample.json files.json; the images go to (fmt="kitti")
+    MiddEval3/trainingF/000000/   sample 0: im0.png im1.png disp0GT.pfm ... calib.txt
+                        scene.json sample.json [preview.png]          (fmt="middlebury")
+    MiddEval3/official_train.txt  the complete samples' names (RAFT-Stereo's Middlebury loader)
+    training/samples/000000/      scene.json sample.json; the images go to  (fmt="kitti")
     training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
     training/calib_cam_to_cam/                                    000000.txt
     .lock               held (flock) by the run writing the directory
@@ -17,8 +18,9 @@ Guarantees (see ``docs/datasets.md``):
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
   :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
   workers, the engine or the order;
-- a sample is written into ``.NNNNNN.tmp-<pid>/``, its completion record ``files.json`` (every
-  file with size and SHA-256, :mod:`synth.dataset.integrity`) last, and renamed to ``NNNNNN/``.
+- a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to its folder (above; see
+  :mod:`synth.dataset.layout`); its completion record ``records/NNNNNN.json`` (every file with
+  size and SHA-256, :mod:`synth.dataset.integrity`) is written last.
   A run killed at any point and restarted skips the samples whose record exists and whose files
   have the recorded sizes, renders the others again (an emptied folder, a truncated file) and
   ends with the same bytes as an uninterrupted run;
@@ -52,11 +54,14 @@ from synth._json import read_json_object
 from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
-from synth.dataset.integrity import RECORD, completion_record, sample_problems
+from synth.dataset.integrity import completion_record, sample_problems
+from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
+                                  sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
+from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage import FsPath, commit_sample, dataset_path, is_local, remove_tree, write_bytes
-from synth.export import FORMATS, prepare_output_dir, write_pair
-from synth.formats import KITTI_ROOT
+from synth.export import prepare_output_dir, write_pair
+from synth.formats import DATASET_FORMATS, KITTI_ROOT
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
 from synth.dataset.sampling import (
@@ -191,8 +196,14 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
               "params": dict(draw.params), "stats": stats}
     dest.mkdir(parents=True, exist_ok=True)
-    write_pair(degraded, dest, scene=scene, seed=draw.seed, fmt=fmt, index=index,
+    write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
+               fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
                preview=config.preview, fsync=False)
+    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.ground_truth)
+        from synth.ground_truth import render_ground_truth, write_ground_truth
+
+        write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
+                                                     renderer=renderer), fsync=False)
     atomic_write_bytes(dest / "sample.json", _json_bytes(record), fsync=False)
     lap("write")
     return record
@@ -208,11 +219,12 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
                 os.replace(f, out / KITTI_ROOT / sub.name / f.name)
             sub.rmdir()
         shared.rmdir()
-    final = out / f"{index:06d}"
+    final = sample_dir(out, fmt, index)
+    final.parent.mkdir(parents=True, exist_ok=True)
     try:
         os.rename(tmp, final)
     except OSError:
-        if not (final / RECORD).is_file():
+        if not record_path(out, index).is_file():
             raise
         shutil.rmtree(tmp, ignore_errors=True)  # finished meanwhile by another process: same bytes
     # No fsync of `out`: the files are not fsynced either (see docs/datasets.md), so making the
@@ -221,26 +233,35 @@ def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
 
 def _dataset_files(tmp: Path, index: int, fmt: str) -> list[tuple[str, Path]]:
     """The files of a sample's temporary folder, as (path in the dataset, file) pairs."""
-    name = f"{index:06d}"
+    folder = sample_dir(Path(), fmt, index).as_posix()
     files = []
     for path in sorted(p for p in tmp.rglob("*") if p.is_file()):
         rel = path.relative_to(tmp)
-        in_dataset = str(rel) if fmt == "kitti" and rel.parts[0] == KITTI_ROOT else f"{name}/{rel}"
+        in_dataset = rel.as_posix() if fmt == "kitti" and rel.parts[0] == KITTI_ROOT \
+            else f"{folder}/{rel.as_posix()}"
         files.append((in_dataset, path))
     return files
 
 
-def _write_record(tmp: Path, index: int, fmt: str) -> None:
-    """The sample's completion record, last, listing its files by their final paths."""
-    atomic_write_bytes(tmp / RECORD, completion_record(index, _dataset_files(tmp, index, fmt)),
-                       fsync=False)
+def _record_name(index: int) -> str:
+    """The completion record's path in the dataset (``records/NNNNNN.json``)."""
+    return record_path(Path(), index).as_posix()
+
+
+def _write_record(out: Path | FsPath, index: int, record: bytes) -> None:
+    """Write the completion record last, once the sample's files are in place."""
+    path = record_path(out, index)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_bytes(path, record)
 
 
 def _returned_files(tmp: Path, index: int, fmt: str) -> dict[str, bytes]:
-    """A rendered sample's files as a worker returns them: its completion record written, then
-    every file read back (path in the dataset -> bytes)."""
-    _write_record(tmp, index, fmt)
-    return {name: path.read_bytes() for name, path in _dataset_files(tmp, index, fmt)}
+    """A rendered sample's files as a worker returns them (path in the dataset -> bytes), its
+    completion record among them."""
+    listed = _dataset_files(tmp, index, fmt)
+    files = {name: path.read_bytes() for name, path in listed}
+    files[_record_name(index)] = completion_record(index, listed)
+    return files
 
 
 def commit_returned(tmp: Path, out: Path | FsPath, index: int, fmt: str) -> None:
@@ -248,7 +269,8 @@ def commit_returned(tmp: Path, out: Path | FsPath, index: int, fmt: str) -> None
     (a folder :func:`produce_sample` wrote) returned as bytes and committed into ``out``
     (``stereoforge bench dataset`` times it)."""
     files = _returned_files(tmp, index, fmt)
-    commit_sample(out, index, files, record=f"{index:06d}/{RECORD}",
+    commit_sample(out, index, files, folder=sample_dir(Path(), fmt, index).as_posix(),
+                  record=_record_name(index),
                   commit_local=lambda t, root: _commit(t, root, index, fmt))
 
 
@@ -291,8 +313,9 @@ class SampleTask:
                 files = _returned_files(tmp, index, self.fmt)
                 shutil.rmtree(tmp, ignore_errors=True)
                 return record, files
-            _write_record(tmp, index, self.fmt)
+            done = completion_record(index, _dataset_files(tmp, index, self.fmt))
             _commit(tmp, self.out, index, self.fmt)
+            _write_record(self.out, index, done)
             return record
         except BaseException as exc:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -315,16 +338,28 @@ def _write_manifest(out: Path) -> list[dict]:
 def _dataset_header(config: DatasetConfig, fmt: str) -> dict:
     return {"format_version": _FORMAT_VERSION, "name": config.name,
             "config": config.to_dict(with_count=False), "config_hash": config.hash(),
-            "format": fmt, "canny": CANNY_SETTINGS,
+            "format": fmt, "layout": LAYOUT_VERSION, "canny": CANNY_SETTINGS,
             "seeding": "sample_seed = SeedSequence(seed, spawn_key=(index,)).generate_state(1, "
                        "uint64)[0] >> 1"}
 
 
-def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
+def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | None,
+                  disp_encoding: str | None) -> None:
     header = _dataset_header(config, fmt)
+    if shard_size is not None:
+        header["shard_size"] = shard_size
+    if disp_encoding is not None:  # absent by default: dataset.json as before
+        header["disp_encoding"] = disp_encoding
     path = out / "dataset.json"
     if path.is_file():
         old = read_json_object(path, what="dataset header", fix=MODIFIED_FIX)
+        if old.get("shard_size") != shard_size:
+            raise DatasetError(f"{out} holds shards of {old.get('shard_size')} bytes, not "
+                               f"{shard_size}; rerun with --shard-size {old.get('shard_size')}")
+        if old.get("disp_encoding") != disp_encoding:
+            raise DatasetError(f"{out} holds shards with float maps encoded as "
+                               f"{old.get('disp_encoding') or 'pfm'}, not {disp_encoding or 'pfm'}"
+                               f"; rerun with --disp-encoding {old.get('disp_encoding') or 'pfm'}")
         if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
             raise DatasetError(
                 f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
@@ -338,6 +373,7 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str) -> None:
                 f"one writes version {_FORMAT_VERSION} (other bytes for the same seeds), so the "
                 "dataset cannot be extended here: finish it with the version that started it, "
                 "or choose a new output directory")
+        check_layout(out)
         return
     others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
     if others:
@@ -372,6 +408,8 @@ def run_dataset(
     fmt: str = "middlebury",
     progress: bool = True,
     backend: str = "auto",
+    shard_size: int | None = None,
+    disp_encoding: str | None = None,
 ) -> DatasetRun:
     """Render (or finish) the dataset of ``config`` into ``out``.
 
@@ -392,11 +430,17 @@ def run_dataset(
     engine : {"local", "ray"}
     address : str, optional
         Ray cluster address; default a local Ray with ``num_cpus=workers``.
-    fmt : {"middlebury", "kitti"}
+    fmt : {"middlebury", "kitti", "webdataset"}
+        ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
     progress : bool
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}
         GL backend of every worker's renderer.
+    disp_encoding : {"pfm", "pfm.gz"}, optional
+        How ``fmt="webdataset"`` stores the float maps (default ``pfm``; ``pfm.gz``: gzip,
+        lossless); refused with other formats.
+    shard_size : int, optional
+        Bytes per shard of ``fmt="webdataset"`` (default about 1 GB); refused with other formats.
 
     Returns
     -------
@@ -417,20 +461,29 @@ def run_dataset(
     >>> import tempfile
     >>> tmp = tempfile.mkdtemp()
     >>> run = run_dataset("planes", out=f"{tmp}/planes", count=2, progress=False)
-    >>> run.rendered, sorted(p.name for p in run.out.iterdir())[:3]
-    (2, ['.lock', '000000', '000001'])
+    >>> run.rendered, sorted(p.name for p in (run.out / "MiddEval3" / "trainingF").iterdir())
+    (2, ['000000', '000001'])
     """
     out = dataset_path(out)  # a URL whose filesystem is not installed fails here, before any work
     cfg = load_config(config)
     count = cfg.count if count is None else count
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 999_999:
         raise ValueError(f"count must be an int in [1, 999999], got {count!r}")
-    if fmt not in FORMATS:
-        raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
-    if cfg.rig.errors is not None and fmt != "middlebury":
+    if fmt not in DATASET_FORMATS:
+        raise ValueError(f"fmt must be one of {', '.join(DATASET_FORMATS)}, got {fmt!r}")
+    shard_size = check_shard_option(fmt, shard_size)
+    disp_encoding = check_disp_encoding(fmt, disp_encoding)
+    if cfg.rig.errors is not None and fmt == "kitti":
         raise DatasetError(f"{cfg.source}: the [rig] camera errors give each sample a flow0.flo, "
-                           f"which only the middlebury layout holds, not {fmt!r}; use "
-                           "--format middlebury")
+                           f"which the KITTI layout cannot hold; use --format middlebury "
+                           "(or webdataset)")
+    if cfg.ground_truth and fmt == "kitti":
+        raise ParameterError(f"{cfg.source}: ground_truth = {list(cfg.ground_truth)} has no place "
+                             "in the KITTI 2015 layout; use fmt='middlebury' or 'webdataset', or "
+                             "drop ground_truth")
+    if shard_size is not None and not is_local(out):
+        raise ParameterError(f"{out}: --format webdataset packs its shards in a local folder; "
+                             "write them to a path (and copy the shards to object storage)")
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -443,15 +496,22 @@ def run_dataset(
     out.mkdir(parents=True, exist_ok=True)
     lock = _lock(out)
     try:
-        _open_dataset(out, cfg, fmt)
+        _open_dataset(out, cfg, fmt, shard_size, disp_encoding)
         for stale in out.iterdir():
             if _TMP_DIR.match(stale.name):
                 remove_tree(stale)
         # a sample is done when its completion record exists and its files have the recorded
         # sizes (checksums: verify_dataset, `stereoforge dataset --verify`); else render again
-        todo = [i for i in range(count) if sample_problems(out, i)]
+        packer = None if shard_size is None else ShardWriter(
+            out, sample_parent(out, fmt), shard_size, count,
+            complete=lambda i: not sample_problems(out, fmt, i),
+            forget=lambda i: record_path(out, i).unlink(missing_ok=True),
+            disp_encoding=disp_encoding)
+        todo = packer.todo(count) if packer else [i for i in range(count)
+                                                 if sample_problems(out, fmt, i)]
         for i in todo:
-            remove_tree(out / f"{i:06d}")
+            remove_tree(record_path(out, i))
+            remove_tree(sample_dir(out, fmt, i))
         # Ray workers and URL outputs: the workers return the bytes, this process writes them
         returns_bytes = engine == "ray" or not is_local(out)
         task = SampleTask(cfg, None if returns_bytes else out, fmt, backend)
@@ -461,12 +521,23 @@ def run_dataset(
             for index, result in run_tasks(task, todo, workers=workers, engine=engine,
                                            address=address):
                 if returns_bytes:
-                    commit_sample(out, index, result[1], record=f"{index:06d}/{RECORD}",
+                    commit_sample(out, index, result[1],
+                                  folder=sample_dir(Path(), fmt, index).as_posix(),
+                                  record=_record_name(index),
                                   commit_local=lambda t, root, i=index: _commit(t, root, i, fmt))
                 bar.update()
+                if packer:
+                    packer.advance(count)
+            if packer:
+                packer.advance(count)
+                packer.finish()
+        except BaseException:
+            if packer:
+                packer.abort()
+            raise
         finally:
             bar.close()
-            _write_manifest(out)
+            write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
     finally:
         if lock is not None:
             os.close(lock)
@@ -503,7 +574,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     >>> sorted(f.name for f in files)[:3]
     ['calib.txt', 'disp0GT.pfm', 'disp1GT.pfm']
     >>> from pathlib import Path
-    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "000001", "im0.png").read_bytes()
+    >>> Path(tmp, "planes-1", "im0.png").read_bytes() == Path(tmp, "planes", "MiddEval3", "trainingF", "000001", "im0.png").read_bytes()
     True
     """
     from synth.render.renderer import Renderer
@@ -516,7 +587,8 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     cfg = config_from_dict(header["config"], source=str(path))
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= 999_999:
         raise ParameterError(f"index must be an int in [0, 999999], got {index!r}")
-    record = root / f"{index:06d}" / "sample.json"
+    check_layout(root)
+    record = sample_dir(root, header["format"], index) / "sample.json"
     seed = sample_seed(cfg.seed, index)
     if record.is_file() and read_json_object(record, what="sample record", keys={"seed": int},
                                              fix=MODIFIED_FIX)["seed"] != seed:

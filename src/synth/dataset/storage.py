@@ -15,7 +15,7 @@ missing (``s3://`` without ``s3fs``) raises :class:`~stereoforge.errors.DatasetE
 package, before any work.
 
 Commit of one sample (:func:`commit_sample`): the driver receives the sample's files as bytes
-(path in the dataset -> bytes, the completion record ``files.json`` among them) and writes them.
+(path in the dataset -> bytes, the completion record ``records/NNNNNN.json`` among them) and writes them.
 Into a local folder they go through the same temporary folder and rename as a local worker's.
 Into an object store, where there is no rename, *atomic* means: every file first, the completion
 record last. A sample whose record is missing or contradicts its files is rendered again by the
@@ -201,37 +201,44 @@ def write_bytes(path: Path | FsPath, data: bytes) -> None:
 
 
 def remove_tree(path: Path | FsPath) -> None:
-    """Remove a folder and everything under it; nothing if it is not there."""
+    """Remove a file, or a folder and everything under it; nothing if it is not there."""
     if isinstance(path, Path):
-        shutil.rmtree(path, ignore_errors=True)
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
     elif path.exists():
         path.fs.rm(path.path, recursive=True)
 
 
-def commit_sample(out: Path | FsPath, index: int, files: Mapping[str, bytes], *, record: str,
-                  commit_local: Callable[[Path, Path], None]) -> None:
+def commit_sample(out: Path | FsPath, index: int, files: Mapping[str, bytes], *, folder: str,
+                  record: str, commit_local: Callable[[Path, Path], None]) -> None:
     """Write sample ``index``'s files (path in the dataset -> bytes), its completion record last.
 
-    ``record`` is the record's path in the dataset (``NNNNNN/files.json``). Into a folder the
-    files go to ``.NNNNNN.tmp-<pid>/`` (laid out as a worker lays it out: a sample file
-    ``NNNNNN/x`` as ``x``, any other as itself), and ``commit_local(tmp, out)`` renames them into
-    place, as a local worker does. Into an object store every file is put in its final place,
-    the record after all of them.
+    ``folder`` is the sample's folder in the dataset (e.g. ``MiddEval3/trainingF/000003``) and
+    ``record`` its completion record's path (``records/NNNNNN.json``). Into a folder the files
+    go to ``.NNNNNN.tmp-<pid>/`` (laid out as a worker lays it out: a file ``<folder>/x`` as
+    ``x``, any other, e.g. KITTI's shared ``training/...``, as itself), ``commit_local(tmp,
+    out)`` moves them into place as a local worker does, then the record is written. Into an
+    object store every file is put in its final place, the record after all of them.
     """
-    sample = f"{index:06d}"
     if isinstance(out, Path):
-        tmp = out / f".{sample}.tmp-{os.getpid()}"
+        tmp = out / f".{index:06d}.tmp-{os.getpid()}"
         shutil.rmtree(tmp, ignore_errors=True)
+        prefix = folder.rstrip("/") + "/"
         try:
             for name, data in files.items():
-                first, _, rest = name.partition("/")
-                dest = tmp / (rest if first == sample else name)
+                if name == record:
+                    continue
+                dest = tmp / (name[len(prefix):] if name.startswith(prefix) else name)
                 dest.parent.mkdir(parents=True, exist_ok=True)
                 dest.write_bytes(data)
             commit_local(tmp, out)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
+        (out / record).parent.mkdir(parents=True, exist_ok=True)
+        write_bytes(out / record, files[record])
         return
     for name in sorted(files):
         if name != record:

@@ -117,6 +117,40 @@ void main() {
 }
 """
 
+# Labels (a ground-truth pass, no multisampling): the interpolated vertex normal turned toward
+# the camera, and the instance id, of the surface the depth pass sees (same linear depth test).
+_LABEL_VERT = """#version 330 core
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec4 label;  // vertex normal (x, y, z), instance id
+uniform mat4 PV;
+out float z_cam;
+out vec3 to_surface;
+out vec3 normal;
+flat out float instance;
+uniform vec3 eye;
+void main() {
+    gl_Position = PV * vec4(position, 1.0);
+    z_cam = position.z;
+    to_surface = position - eye;
+    normal = label.xyz;
+    instance = label.w;
+}
+"""
+_LABEL_FRAG = """#version 330 core
+in float z_cam;
+in vec3 to_surface;
+in vec3 normal;
+flat in float instance;
+uniform float inv_far;
+layout(location = 0) out vec4 out_label;
+void main() {
+    vec3 n = normalize(normal);
+    if (dot(n, to_surface) > 0.0) n = -n;  // the side the camera sees
+    out_label = vec4(n, instance);
+    gl_FragDepth = z_cam * inv_far;
+}
+"""
+
 
 def _program(vert: str, frag: str) -> int:
     from OpenGL import GL
@@ -172,6 +206,19 @@ def _set_culling(cull: bool) -> None:
     (GL.glEnable if cull else GL.glDisable)(GL.GL_CULL_FACE)
 
 
+def _draw_groups(up: GLScene) -> None:
+    """Draw the bound VAO's scene in two calls: closed meshes culled, open ones not; unbind."""
+    from OpenGL import GL
+
+    for first, count, cull in ((0, up.closed, True), (up.closed, up.count - up.closed, False)):
+        if count:
+            _set_culling(cull)
+            GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
+                              ctypes.c_void_p(4 * first))
+    GL.glBindVertexArray(0)
+    GL.glUseProgram(0)
+
+
 @dataclass
 class GLScene:
     """GL resources of one uploaded scene (released by :meth:`Passes.release`)."""
@@ -185,6 +232,8 @@ class GLScene:
     closed: int  # indices of the closed meshes, which come first (drawn with back-face culling)
     count: int  # indices of the whole scene
     meta: dict = field(default_factory=dict)
+    instances: list[int] = field(default_factory=list)  # instance id (scene order + 1) per mesh
+    vao_label: int = 0  # made by the first labels pass (normals and ids in their own buffer)
     lit: Any = None  # synth.render.lighting.LitScene of a lit scene, else None (flat program)
 
 
@@ -216,6 +265,8 @@ class Passes:
         self.white = self._texture(np.full((3, 3, 3), 255, dtype=np.uint8))
         self.lit_program: Any = None  # compiled at the first lit scene (synth.render.lighting)
         self.fbs: list[tuple[int, list[int]]] = []
+        self.label_program = 0  # the labels pass is made on first use: the default passes skip it
+        self.fb_label: tuple[int, list[int]] | None = None
         self.resize(width, height)
 
     def resize(self, width: int, height: int) -> None:
@@ -233,6 +284,17 @@ class Passes:
         self.fb_gt = _framebuffer([(color, GL.GL_R32F), (depth, GL.GL_DEPTH_COMPONENT32F)],
                                   width, height, 1, "float32 depth")
         self.fbs = [self.fb_msaa, self.fb_resolve, self.fb_gt]
+        if self.fb_label is not None:
+            self.fb_label = self._label_framebuffer()
+
+    def _label_framebuffer(self) -> tuple[int, list[int]]:
+        from OpenGL import GL
+
+        fb = _framebuffer([(GL.GL_COLOR_ATTACHMENT0, GL.GL_RGBA32F),
+                           (GL.GL_DEPTH_ATTACHMENT, GL.GL_DEPTH_COMPONENT32F)],
+                          self.w, self.h, 1, "float32 labels")
+        self.fbs.append(fb)
+        return fb
 
     def delete(self) -> None:
         from OpenGL import GL
@@ -245,6 +307,8 @@ class Passes:
             self.lit_program.delete()
         GL.glDeleteProgram(self.color_program)
         GL.glDeleteProgram(self.gt_program)
+        if self.label_program:
+            GL.glDeleteProgram(self.label_program)
 
     # ------------------------------------------------------------------ uploads
     @staticmethod
@@ -284,7 +348,8 @@ class Passes:
         """
         from OpenGL import GL
 
-        meshes = sorted(meshes, key=lambda m: not m.closed)  # stable: scene order within groups
+        order = sorted(range(len(meshes)), key=lambda i: not meshes[i].closed)  # stable
+        meshes = [meshes[i] for i in order]  # closed first, scene order within groups
         closed = sum(int(m.faces.size) for m in meshes if m.closed)
         for m in meshes:  # every texture checked before anything is uploaded
             if m.image is not None:
@@ -324,7 +389,7 @@ class Passes:
         GL.glBindVertexArray(0)
         GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
         up = GLScene(meshes, vao_color, vao_gt, [vbo, ebo], list(textures.values()),
-                     draws, closed, int(faces.size), meta)
+                     draws, closed, int(faces.size), meta, [i + 1 for i in order])
         if lighting is not None:
             from synth.render import lighting as lit
 
@@ -343,6 +408,8 @@ class Passes:
             release_lit(up.lit)
             up.lit = None
         GL.glDeleteVertexArrays(2, [up.vao_color, up.vao_gt])
+        if up.vao_label:
+            GL.glDeleteVertexArrays(1, [up.vao_label])
         GL.glDeleteBuffers(len(up.buffers), up.buffers)
         if up.textures:
             GL.glDeleteTextures(len(up.textures), up.textures)
@@ -446,11 +513,60 @@ class Passes:
         GL.glUniformMatrix4fv(self.loc_gt_pv, 1, GL.GL_TRUE, pv)
         GL.glUniform1f(self.loc_far, 1.0 / far)
         GL.glBindVertexArray(up.vao_gt)
-        for first, count, cull in ((0, up.closed, True), (up.closed, up.count - up.closed, False)):
-            if count:
-                _set_culling(cull)
-                GL.glDrawElements(GL.GL_TRIANGLES, count, GL.GL_UNSIGNED_INT,
-                                  ctypes.c_void_p(4 * first))
-        GL.glBindVertexArray(0)
-        GL.glUseProgram(0)
+        _draw_groups(up)
         return self._read_float()
+
+    # ------------------------------------------------------------------ labels (optional GT)
+    def _label_vao(self, up: GLScene) -> int:
+        """Per-vertex normal and instance id in a buffer of their own (the colour and depth
+        passes' vertex layout is untouched), bound with the scene's positions and indices."""
+        from OpenGL import GL
+
+        labels = np.concatenate([np.column_stack([m.normals, np.full(len(m.normals), k, np.float32)])
+                                 for m, k in zip(up.meshes, up.instances)]).astype(np.float32)
+        vao = int(GL.glGenVertexArrays(1))
+        lbo = int(GL.glGenBuffers(1))
+        GL.glBindVertexArray(vao)
+        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, up.buffers[0])
+        GL.glEnableVertexAttribArray(0)
+        GL.glVertexAttribPointer(0, 3, GL.GL_FLOAT, GL.GL_FALSE, _STRIDE, ctypes.c_void_p(0))
+        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, lbo)
+        GL.glBufferData(GL.GL_ARRAY_BUFFER, labels.nbytes, labels, GL.GL_STATIC_DRAW)
+        GL.glEnableVertexAttribArray(1)
+        GL.glVertexAttribPointer(1, 4, GL.GL_FLOAT, GL.GL_FALSE, 16, ctypes.c_void_p(0))
+        GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, up.buffers[1])
+        GL.glBindVertexArray(0)
+        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
+        up.buffers.append(lbo)
+        up.vao_label = vao
+        return vao
+
+    def labels(self, up: GLScene, pv: np.ndarray, far: float,
+               eye: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """(H, W, 3) float32 unit normals facing the camera at ``eye`` (0 where no surface) and
+        (H, W) uint32 instance ids (0: background) of the surfaces the depth pass sees."""
+        from OpenGL import GL
+
+        if self.fb_label is None:
+            self.label_program = _program(_LABEL_VERT, _LABEL_FRAG)
+            self.fb_label = self._label_framebuffer()
+        vao = up.vao_label or self._label_vao(up)
+        prog = self.label_program
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_label[0])
+        GL.glViewport(0, 0, self.w, self.h)
+        GL.glDisable(GL.GL_MULTISAMPLE)
+        self._common_state()
+        GL.glClearBufferfv(GL.GL_COLOR, 0, np.zeros(4, dtype=np.float32))
+        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
+        GL.glUseProgram(prog)
+        GL.glUniformMatrix4fv(GL.glGetUniformLocation(prog, "PV"), 1, GL.GL_TRUE, pv)
+        GL.glUniform1f(GL.glGetUniformLocation(prog, "inv_far"), 1.0 / far)
+        GL.glUniform3f(GL.glGetUniformLocation(prog, "eye"), *(float(e) for e in eye))
+        GL.glBindVertexArray(vao)
+        _draw_groups(up)
+        out = np.empty((self.h, self.w, 4), dtype=np.float32)
+        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
+        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGBA, GL.GL_FLOAT, out.ctypes.data)
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+        out = out[::-1]  # GL rows run bottom-up
+        return np.ascontiguousarray(out[..., :3]), out[..., 3].astype(np.uint32)

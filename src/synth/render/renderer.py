@@ -42,7 +42,7 @@ from synth.render.passes import GLScene, Passes
 if TYPE_CHECKING:
     from synth.rig import StereoRig
 
-__all__ = ["GLBackendError", "Renderer", "ViewRender", "BACKENDS", "resolve_backend"]
+__all__ = ["GLBackendError", "Renderer", "ViewRender", "ViewLabels", "BACKENDS", "resolve_backend"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,24 @@ class ViewRender:
     color: np.ndarray
     depth: np.ndarray
     highlight: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class ViewLabels:
+    """The labels pass of one view (:meth:`Renderer.render_labels`).
+
+    Attributes
+    ----------
+    normals : (H, W, 3) float32 array
+        Unit surface normal (camera axes: x right, y down, z forward) at each pixel centre,
+        turned toward the camera; the mesh's vertex normals interpolated across each triangle.
+        ``0`` where there is no surface.
+    instance : (H, W) uint32 array
+        1 + the index of the object seen (scene order); 0 where there is none.
+    """
+
+    normals: np.ndarray
+    instance: np.ndarray
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -251,6 +269,13 @@ class Renderer:
         ValueError
             If an object lies behind the camera or outside ``[near, far]``.
         """
+        with self._view(scene, rig, eye) as up:
+            return self._render(up, rig, eye)
+
+    @contextmanager
+    def _view(self, scene: Any, rig: StereoRig, eye: str) -> Iterator[GLScene]:
+        """The checked arguments of one view: ``scene`` uploaded, its depth range checked, the
+        context current and the framebuffers of the rig's size."""
         from synth.rig import StereoRig
 
         self._check_open()
@@ -261,13 +286,22 @@ class Renderer:
         with self.uploaded(scene):
             up = self._held[id(scene)][1]
             check_depth_range(up.meshes, rig)
-            return self._render(up, rig, eye)
+            self._context.make_current()
+            if (rig.width, rig.height) != (self.width, self.height):
+                self.width, self.height = rig.width, rig.height
+                self._passes.resize(rig.width, rig.height)
+            yield up
+
+    def render_labels(self, scene: Any, rig: StereoRig, *, eye: str) -> ViewLabels:
+        """Render the labels of one view: surface normals and instance ids (a ground-truth pass
+        with the depth pass's visibility; the colour and depth passes are unchanged by it)."""
+        with self._view(scene, rig, eye) as up:
+            pose = _camera_pose(rig, eye)
+            pv = (_projection(rig) @ np.linalg.inv(pose)).astype(np.float32)
+            normals, instance = self._passes.labels(up, pv, rig.far, pose[:3, 3])
+            return ViewLabels(normals=normals, instance=instance)
 
     def _render(self, up: GLScene, rig: StereoRig, eye: str) -> ViewRender:
-        self._context.make_current()
-        if (rig.width, rig.height) != (self.width, self.height):
-            self.width, self.height = rig.width, rig.height
-            self._passes.resize(rig.width, rig.height)
         pose = _camera_pose(rig, eye)
         pv = (_projection(rig) @ np.linalg.inv(pose)).astype(np.float32)
         position = pose[:3, 3]
