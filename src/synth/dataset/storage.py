@@ -7,7 +7,7 @@
 - any other URL -> :class:`FsPath`, a small :class:`~pathlib.Path`-like view of one location of
   an fsspec filesystem, with just the methods the dataset code calls (``/``, ``name``,
   ``is_dir``, ``is_file``, ``exists``, ``iterdir``, ``rglob``, ``stat``, ``read_bytes``,
-  ``open``, ``relative_to``, ``mkdir``). The resume and verify code of
+  ``open``, ``relative_to``, ``stem``, ``suffix``, ``unlink``, ``read_text``, ``mkdir``). The resume and verify code of
   :mod:`synth.dataset.integrity` and :mod:`synth.dataset.manifest` run unchanged on it.
 
 fsspec is optional (``pip install 'stereoforge[storage]'``); a URL whose filesystem package is
@@ -137,6 +137,14 @@ class FsPath:
         return PurePosixPath(self.path).name
 
     @property
+    def stem(self) -> str:
+        return PurePosixPath(self.path).stem
+
+    @property
+    def suffix(self) -> str:
+        return PurePosixPath(self.path).suffix
+
+    @property
     def parent(self) -> FsPath:
         return FsPath(self.fs, str(PurePosixPath(self.path).parent), self.protocol)
 
@@ -178,12 +186,20 @@ class FsPath:
     def read_bytes(self) -> bytes:
         return bytes(self.fs.cat_file(self.path))
 
+    def read_text(self, encoding: str = "utf-8") -> str:
+        return self.read_bytes().decode(encoding)
+
     def open(self, mode: str = "rb") -> IO[bytes]:
         return self.fs.open(self.path, mode)
 
     def write_bytes(self, data: bytes) -> int:
         self.fs.pipe_file(self.path, bytes(data))
         return len(data)
+
+    def unlink(self, missing_ok: bool = False) -> None:
+        if missing_ok and not self.fs.exists(self.path):
+            return
+        self.fs.rm(self.path)
 
     def mkdir(self, parents: bool = False, exist_ok: bool = False) -> None:
         self.fs.makedirs(self.path, exist_ok=True)
