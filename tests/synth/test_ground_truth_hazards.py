@@ -3,7 +3,6 @@ photograph textures (closed form on planes, ray casting on every pixel)."""
 
 from __future__ import annotations
 
-import functools
 import importlib.util
 import types
 from pathlib import Path
@@ -24,14 +23,17 @@ TOL_PX = 1e-3
 RIG = StereoRig(width=64, height=48, fx=60.0, fy=60.0, cx=31.5, cy=23.5, baseline=0.1)
 
 
-@functools.cache
-def _sibling(name: str) -> types.ModuleType:
-    """A test module of this directory (not importable by name under --import-mode=importlib)."""
-    spec = importlib.util.spec_from_file_location(f"_sibling_{name[:-3]}",
-                                                  Path(__file__).with_name(name))
+def _ground_truth_helpers() -> types.ModuleType:
+    """tests/synth/test_ground_truth.py (its ray caster), loaded from its path: test modules
+    are not importable by name under --import-mode=importlib."""
+    path = Path(__file__).with_name("test_ground_truth.py")
+    spec = importlib.util.spec_from_file_location("_gt_helpers", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+_HELPERS = _ground_truth_helpers()
 
 
 def _wall(z: float) -> ObjectSpec:
@@ -91,7 +93,7 @@ def test_thin_bars_depth_is_the_ray_cast_depth_at_every_pixel(renderer: Renderer
     bars, margin = _bars(kind, thickness_px)
     assert margin > 0.005
     spec = SceneSpec("bars", (bars, _wall(4.0)))
-    helpers = _sibling("test_ground_truth.py")
+    helpers = _HELPERS
     meshes = scenes.build_meshes(spec)
     for eye in ("left", "right"):
         got = renderer.render_view(spec, RIG, eye=eye).depth.astype(np.float64)
@@ -158,7 +160,7 @@ def test_mesh_file_depth_matches_ray_casting(renderer: Renderer, tmp_path: Path,
                      (0.5,), TextureSpec(kind="checker", frequency=12.0), path=str(path))
     spec = SceneSpec("mesh", (obj, _wall(4.0)))
     meshes = scenes.build_meshes(spec)
-    helpers = _sibling("test_ground_truth.py")
+    helpers = _HELPERS
     for eye in ("left", "right"):
         z = renderer.render_view(spec, RIG, eye=eye).depth.astype(np.float64)
         want = helpers._raycast_depth(meshes, RIG, eye)
