@@ -61,6 +61,10 @@ def _allowed(section: str, spec: Key) -> str:
 
 _SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
 _OCCLUDER_KINDS = ("box", "sphere", "cylinder")
+_OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
+#: ``[scene]`` keys drawn once per object (``synth.dataset.sampling``), not once per sample.
+PER_OBJECT_KEYS = ("object_texture", "object_image", "object_frequency_px", "object_contrast",
+                   "object_mean", "object_angle")
 
 #: Every section, key and its schema (``""`` is the top level).
 SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
@@ -95,6 +99,16 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "occluder_depth": Key("float", 1.5, lo=0.0, lo_open=True,
                               doc="occluder centre depth, metres"),
         "occluder_kind": Key("str", "box", choices=_OCCLUDER_KINDS, doc="occluder shape"),
+        "object_texture": Key("str", None, choices=_OBJECT_TEXTURES,
+                              doc="texture kind, drawn per object (repeat a choice to weight it)"),
+        "object_image": Key("str", None, doc="photograph of an 'image' texture, drawn per "
+                            "object: skimage:<name>, a file or a folder"),
+        "object_frequency_px": Key("float", None, lo=0.0, lo_open=True, hi=0.5,
+                                   doc="texture frequency per object, cycles per pixel at its "
+                                       "depth (of a photograph: its mean frequency)"),
+        "object_contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast per object"),
+        "object_mean": Key("float", None, lo=0.0, hi=1.0, doc="texture mean grey per object"),
+        "object_angle": Key("float", None, doc="texture angle per object, degrees"),
     },
     "photometric": {
         "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,
@@ -283,6 +297,30 @@ class _Parser:
         self.keys(data, section, list(SCHEMA[section]))
         return {k: data[k] for k in SCHEMA[section] if k in data}
 
+    def per_object(self, scene: Mapping[str, Dist]) -> None:
+        """The per-object texture keys go together and name known photographs."""
+        given = [k for k in PER_OBJECT_KEYS if k in scene]
+        if not given:
+            return
+        if "object_texture" not in scene:
+            raise self.fail("scene", given[0], "object_texture beside it",
+                            "no object_texture", fix="add object_texture = {choice = [...]}")
+        if "edge_density" in scene:
+            raise self.fail("scene", "edge_density", "edge_density or object_texture, not both",
+                            "both", fix="edge_density sets one frequency for every object")
+        kinds = scene["object_texture"].args if scene["object_texture"].kind != "fixed" else (
+            scene["object_texture"].args[0],)
+        if "image" in kinds and "object_image" not in scene:
+            raise self.fail("scene", "object_texture", "object_image beside an 'image' choice",
+                            "no object_image",
+                            fix="add object_image = {choice = ['skimage:brick', ...]}")
+        from scenes.spec import SKIMAGE_PHOTOS
+
+        for value in scene["object_image"].args if "object_image" in scene else ():
+            if value.startswith("skimage:") and value[8:] not in SKIMAGE_PHOTOS:
+                raise self.fail("scene", "object_image", f"skimage:<name> with a name in "
+                                f"{list(SKIMAGE_PHOTOS)}", repr(value))
+
     def parse(self, data: Mapping[str, Any]) -> DatasetConfig:
         if not isinstance(data, Mapping):
             raise ConfigError(f"{self.source}: a configuration is a table, got "
@@ -325,6 +363,7 @@ class _Parser:
             raise self.fail("scene", "edge_density", "a textured surface",
                             "texture = 'constant', which has none",
                             fix="choose another texture or remove edge_density")
+        self.per_object(scene)
         return DatasetConfig(
             name=name, seed=top.get("seed", 0), count=top.get("count", 10),
             preview=top.get("preview", False), rig=rig,
@@ -348,7 +387,7 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
     Traceback (most recent call last):
     ...
-    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind']; did you mean 'occluders'?
+    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle']; did you mean 'occluders'?
     >>> loads_config("[rig]\\nwidth = 4\\n", source="my.toml")
     Traceback (most recent call last):
     ...

@@ -4,25 +4,28 @@ Sample ``i`` of a dataset with seed ``s`` has the seed
 ``sample_seed(s, i) = SeedSequence(s, spawn_key=(i,)).generate_state(1, uint64)[0] >> 1``
 (an int in ``[0, 2**63)``), and everything about the sample derives from that one integer through
 independent streams ``SeedSequence(sample_seed, spawn_key=(k,))``: ``k = 0`` the parameter draws,
-``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise. Nothing depends on
+``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise, ``4`` the per-object
+textures (the ``object_*`` keys, drawn for every object in scene order: kind, then photograph,
+frequency, contrast, mean, angle where given, then the texture's seed). Nothing depends on
 which worker renders the sample, nor when.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
 from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec, get_preset
-from synth.dataset.config import DatasetConfig
+from synth.dataset.config import PER_OBJECT_KEYS, DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
 
 __all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px"]
 
-_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC = range(4)
+_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC, _STREAM_TEXTURES = range(5)
 #: Occluder texture frequency (cycles per pixel) when the config sets none (as the presets: 8 px).
 _DEFAULT_OCCLUDER_FREQUENCY_PX = 0.125
 
@@ -104,6 +107,28 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
     return out
 
 
+def _object_textures(scene: SceneSpec, config: DatasetConfig, rng: np.random.Generator
+                     ) -> SceneSpec:
+    """Every object's texture drawn from the ``object_*`` keys (unset ones keep its own)."""
+    dists = config.scene
+    objects = []
+    for obj in scene.objects:
+        kind = str(dists["object_texture"].sample(rng))
+        image = str(dists["object_image"].sample(rng)) if "object_image" in dists else ""
+        t = obj.texture
+        changes: dict[str, Any] = {"kind": kind, "image": image if kind == "image" else ""}
+        if "object_frequency_px" in dists:
+            f_px = float(dists["object_frequency_px"].sample(rng))
+            changes["frequency"] = f_px * config.rig.fx / obj.pose.translation[2]
+        for key in ("contrast", "mean", "angle"):
+            if f"object_{key}" in dists:
+                changes[key] = float(dists[f"object_{key}"].sample(rng))
+        changes["seed"] = int(rng.integers(0, 2**63))
+        texture = TextureSpec(**{**{f: getattr(t, f) for f in t.__dataclass_fields__}, **changes})
+        objects.append(dataclasses.replace(obj, texture=texture))
+    return dataclasses.replace(scene, objects=tuple(objects))
+
+
 def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """Draw sample ``index``'s parameters and build its scene.
 
@@ -120,7 +145,7 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """
     seed = sample_seed(config.seed, index)
     rng = stream(seed, _STREAM_PARAMS)
-    scene_draw = {k: d.sample(rng) for k, d in config.scene.items()}
+    scene_draw = {k: d.sample(rng) for k, d in config.scene.items() if k not in PER_OBJECT_KEYS}
     phot_draw = {k: d.sample(rng) for k, d in config.photometric.items()}
     preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
     scene = get_preset(str(scene_draw["base"]), seed=preset_seed)
@@ -132,6 +157,8 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
                           description=scene.description)
     scene = retexture(scene, fx=config.rig.fx, frequency_px=scene_draw.get("frequency_px"),
                       contrast=scene_draw.get("contrast"), kind=kind)
+    if "object_texture" in config.scene:
+        scene = _object_textures(scene, config, stream(seed, _STREAM_TEXTURES))
     params = {f"scene.{k}": v for k, v in scene_draw.items()}
     params.update({f"photometric.{k}": v for k, v in phot_draw.items()})
     params["scene.preset_seed"] = preset_seed
