@@ -60,7 +60,7 @@ def _allowed(section: str, spec: Key) -> str:
 
 
 _SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
-_OCCLUDER_KINDS = ("box", "sphere", "cylinder")
+_OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid")
 _OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
 #: ``[scene]`` keys drawn once per object (``synth.dataset.sampling``), not once per sample.
 PER_OBJECT_KEYS = ("object_texture", "object_image", "object_frequency_px", "object_contrast",
@@ -125,7 +125,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
 })
 
 #: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
-EXAMPLES = ("planes", "texture-sweep", "flying")
+EXAMPLES = ("planes", "texture-sweep", "flying", "middlebury-like")
 
 
 # --------------------------------------------------------------------------- distributions
@@ -414,7 +414,7 @@ def list_examples() -> list[str]:
     Examples
     --------
     >>> list_examples()
-    ['planes', 'texture-sweep', 'flying']
+    ['planes', 'texture-sweep', 'flying', 'middlebury-like']
     """
     return list(EXAMPLES)
 

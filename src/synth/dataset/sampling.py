@@ -94,8 +94,12 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
         side = float(draw["occluder_size"]) * rig.width * z / rig.fx  # metres
         rotation = tuple(float(a) for a in rng.uniform(0.0, 360.0, size=3))
         kind = str(draw["occluder_kind"])
-        size = {"box": (side, side, side), "sphere": (side / 2,),
-                "cylinder": (side / 2, side)}[kind]
+        if kind in ("fence", "grid"):  # six bars across, 1.5 px thick (at least side / 40)
+            thick = max(side / 40.0, 1.5 * z / rig.fx)
+            size = (side, side, side / 6.0, min(thick, side / 12.0))
+        else:
+            size = {"box": (side, side, side), "sphere": (side / 2,),
+                    "cylinder": (side / 2, side)}[kind]
         contrast = draw.get("contrast")
         texture = TextureSpec(
             kind=texture_kind or "noise", frequency=f_px * rig.fx / z,
