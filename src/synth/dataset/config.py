@@ -109,6 +109,9 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "object_contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast per object"),
         "object_mean": Key("float", None, lo=0.0, hi=1.0, doc="texture mean grey per object"),
         "object_angle": Key("float", None, doc="texture angle per object, degrees"),
+        "textureless_area": Key("float", None, lo=0.0, hi=1.0,
+                                doc="target share of the left image showing constant-textured "
+                                    "objects (measured, synth.textureless)"),
     },
     "photometric": {
         "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,
@@ -387,7 +390,7 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
     Traceback (most recent call last):
     ...
-    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle']; did you mean 'occluders'?
+    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle', 'textureless_area']; did you mean 'occluders'?
     >>> loads_config("[rig]\\nwidth = 4\\n", source="my.toml")
     Traceback (most recent call last):
     ...
