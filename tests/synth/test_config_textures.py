@@ -60,3 +60,38 @@ def test_without_the_keys_samples_are_unchanged() -> None:
 def test_bad_per_object_keys_name_the_problem(text: str, pattern: str) -> None:
     with pytest.raises(ConfigError, match=pattern):
         loads_config(text)
+
+
+def test_mesh_occluders_are_centred_and_scaled(tmp_path) -> None:
+    import numpy as np
+    import trimesh
+
+    import scenes
+
+    path = tmp_path / "off.ply"
+    trimesh.creation.icosphere(1, radius=3.0).apply_translation([10.0, 0, 0]).export(path)
+    cfg = loads_config(f"[rig]\nwidth = 64\nheight = 48\n[scene]\noccluders = 2\n"
+                       f"occluder_kind = 'mesh'\noccluder_mesh = '{path}'\n"
+                       "occluder_depth = 1.5\noccluder_size = 0.2\n")
+    occluders = [o for o in draw_sample(cfg, 0).scene.objects if o.kind == "mesh"]
+    assert len(occluders) == 2
+    side = 0.2 * cfg.rig.width * 1.5 / cfg.rig.fx
+    for obj in occluders:
+        mesh = scenes.build_mesh(obj)
+        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        assert mesh.metadata["texture_source"] == "generated"
+        assert float(np.linalg.norm(hi - lo)) <= side * 1.0001  # rotated box fits the diagonal
+        centre = obj.pose.matrix() @ np.array([10.0 * obj.size[0], 0, 0, 1])
+        assert centre[2] == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize("text, pattern", [
+    ("[scene]\noccluders = 1\noccluder_kind = 'mesh'\n",
+     r"scene\.occluder_kind: expected occluder_mesh beside a 'mesh' choice"),
+    ("[scene]\noccluder_kind = 'mesh'\noccluder_mesh = 'nowhere/x.obj'\n",
+     r"<string>:3: scene\.occluder_mesh: expected a mesh file trimesh loads, got "
+     r"'nowhere/x\.obj'; mesh file 'nowhere/x\.obj' does not exist"),
+])
+def test_bad_mesh_occluders_name_the_problem(text: str, pattern: str) -> None:
+    with pytest.raises(ConfigError, match=pattern):
+        loads_config(text)

@@ -60,10 +60,10 @@ def _allowed(section: str, spec: Key) -> str:
 
 
 _SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
-_OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid")
+_OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh")
 _OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
-#: ``[scene]`` keys drawn once per object (``synth.dataset.sampling``), not once per sample.
-PER_OBJECT_KEYS = ("object_texture", "object_image", "object_frequency_px", "object_contrast",
+#: ``[scene]`` keys drawn once per object or occluder (``synth.dataset.sampling``), not per sample.
+PER_OBJECT_KEYS = ("occluder_mesh", "object_texture", "object_image", "object_frequency_px", "object_contrast",
                    "object_mean", "object_angle")
 
 #: Every section, key and its schema (``""`` is the top level).
@@ -99,6 +99,8 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "occluder_depth": Key("float", 1.5, lo=0.0, lo_open=True,
                               doc="occluder centre depth, metres"),
         "occluder_kind": Key("str", "box", choices=_OCCLUDER_KINDS, doc="occluder shape"),
+        "occluder_mesh": Key("str", None, doc="mesh file of 'mesh' occluders (OBJ, PLY, STL, "
+                             "GLB, ...), drawn per occluder"),
         "object_texture": Key("str", None, choices=_OBJECT_TEXTURES,
                               doc="texture kind, drawn per object (repeat a choice to weight it)"),
         "object_image": Key("str", None, doc="photograph of an 'image' texture, drawn per "
@@ -300,9 +302,24 @@ class _Parser:
         self.keys(data, section, list(SCHEMA[section]))
         return {k: data[k] for k in SCHEMA[section] if k in data}
 
+    def meshes(self, scene: Mapping[str, Dist]) -> None:
+        """'mesh' occluders have a mesh file, and every file named loads."""
+        kinds = scene["occluder_kind"].args
+        if "mesh" in kinds and "occluder_mesh" not in scene:
+            raise self.fail("scene", "occluder_kind", "occluder_mesh beside a 'mesh' choice",
+                            "no occluder_mesh", fix="add occluder_mesh = 'model.obj'")
+        from scenes.assets import load_mesh_file
+
+        for value in scene["occluder_mesh"].args if "occluder_mesh" in scene else ():
+            try:
+                load_mesh_file(value)
+            except StereoforgeError as exc:
+                raise self.fail("scene", "occluder_mesh", "a mesh file trimesh loads",
+                                repr(value), fix=str(exc)) from None
+
     def per_object(self, scene: Mapping[str, Dist]) -> None:
         """The per-object texture keys go together and name known photographs."""
-        given = [k for k in PER_OBJECT_KEYS if k in scene]
+        given = [k for k in PER_OBJECT_KEYS if k in scene and k.startswith("object_")]
         if not given:
             return
         if "object_texture" not in scene:
@@ -367,6 +384,7 @@ class _Parser:
                             "texture = 'constant', which has none",
                             fix="choose another texture or remove edge_density")
         self.per_object(scene)
+        self.meshes(scene)
         return DatasetConfig(
             name=name, seed=top.get("seed", 0), count=top.get("count", 10),
             preview=top.get("preview", False), rig=rig,
@@ -390,7 +408,7 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
     Traceback (most recent call last):
     ...
-    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle', 'textureless_area']; did you mean 'occluders'?
+    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'occluder_mesh', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle', 'textureless_area']; did you mean 'occluders'?
     >>> loads_config("[rig]\\nwidth = 4\\n", source="my.toml")
     Traceback (most recent call last):
     ...

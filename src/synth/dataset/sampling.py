@@ -19,6 +19,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec, get_preset
+from scenes.assets import load_mesh_file
 from synth.dataset.config import PER_OBJECT_KEYS, DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
@@ -85,6 +86,7 @@ class SampleDraw:
 def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Generator,
                texture_kind: str | None) -> list[ObjectSpec]:
     rig = config.rig
+    draw_mesh = config.scene.get("occluder_mesh")
     out = []
     f_px = draw.get("frequency_px") or _DEFAULT_OCCLUDER_FREQUENCY_PX
     for i in range(int(draw["occluders"])):
@@ -94,7 +96,14 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
         side = float(draw["occluder_size"]) * rig.width * z / rig.fx  # metres
         rotation = tuple(float(a) for a in rng.uniform(0.0, 360.0, size=3))
         kind = str(draw["occluder_kind"])
-        if kind in ("fence", "grid"):  # six bars across, 1.5 px thick (at least side / 40)
+        path = ""
+        if kind == "mesh":  # scaled to a bounding-box diagonal of `side`, its box centred there
+            path = str(draw_mesh.sample(rng))
+            data = load_mesh_file(path)
+            lo, hi = data.vertices.min(axis=0), data.vertices.max(axis=0)
+            scale = side / max(float(np.linalg.norm(hi - lo)), 1e-12)
+            size = (scale,)
+        elif kind in ("fence", "grid"):  # six bars across, 1.5 px thick (at least side / 40)
             thick = max(side / 40.0, 1.5 * z / rig.fx)
             size = (side, side, side / 6.0, min(thick, side / 12.0))
         else:
@@ -106,8 +115,13 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
             contrast=0.8 if contrast is None else float(contrast),
             mean=float(rng.uniform(0.3, 0.7)), seed=int(rng.integers(0, 2**63)),
             angle=float(rng.uniform(0.0, 180.0)))
-        out.append(ObjectSpec(kind, Pose(translation=(x, y, z), rotation_deg=rotation), size,
-                              texture, name=f"occluder{i}", segments=32))
+        pose = Pose(translation=(x, y, z), rotation_deg=rotation)
+        if path:
+            shift = pose.rotation() @ ((lo + hi) / 2 * size[0])
+            pose = Pose(translation=(x - shift[0], y - shift[1], z - shift[2]),
+                        rotation_deg=rotation)
+        out.append(ObjectSpec(kind, pose, size, texture, name=f"occluder{i}", segments=32,
+                              path=path))
     return out
 
 
