@@ -118,3 +118,30 @@ def test_photo_texture_direct_call_matches_make_texture() -> None:
     spec = TextureSpec(kind="image", image="skimage:coffee", frequency=25.0, seed=3)
     shape = texture_shape(spec, extent=(0.8, 0.6))
     assert (photo_texture(spec, shape, (0.8, 0.6)) == make_texture(spec, extent=(0.8, 0.6))).all()
+
+
+def test_mesh_own_texture_is_used_only_when_asked(tmp_path) -> None:
+    import trimesh
+
+    from scenes.primitives import build_mesh
+    from scenes.spec import ObjectSpec, Pose
+
+    quad = trimesh.Trimesh(vertices=[[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                           faces=[[0, 1, 2], [0, 2, 3]], process=False)
+    image = Image.fromarray(np.arange(4 * 6 * 3, dtype=np.uint8).reshape(4, 6, 3))
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    quad.visual = trimesh.visual.TextureVisuals(uv=uv, image=image)
+    path = tmp_path / "quad.glb"
+    quad.export(path)
+    pose = Pose(translation=(0.0, 0.0, 2.0))
+    own = build_mesh(ObjectSpec("mesh", pose, (1.0,), path=str(path), own_texture=True))
+    assert own.metadata["texture_source"] == "own"
+    assert (np.asarray(own.visual.material.image) == np.asarray(image)).all()
+    np.testing.assert_allclose(own.visual.uv, uv)
+    ours = build_mesh(ObjectSpec("mesh", pose, (1.0,), path=str(path)))
+    assert ours.metadata["texture_source"] == "generated"
+    assert np.asarray(ours.visual.material.image).shape != np.asarray(image).shape
+    bare = tmp_path / "bare.ply"
+    trimesh.Trimesh(quad.vertices, quad.faces, process=False).export(bare)
+    fallback = build_mesh(ObjectSpec("mesh", pose, (1.0,), path=str(bare), own_texture=True))
+    assert fallback.metadata["texture_source"] == "generated"  # no texture of its own
