@@ -13,7 +13,17 @@ meridian of a sphere (longitude lines converge toward the poles), along the cent
 Moebius strip, and on the terrain's ground plan (slopes stretch it slightly). Boxes and cylinders
 pack their faces into one atlas image; each face has its own vertices so texture seams are clean.
 
-Closed kinds (box, sphere, cylinder) wind counter-clockwise seen from outside (outward normals,
+Fences and grids are unions of closed boxes (bars); every vertical bar shares one atlas chart and
+every horizontal bar another, so the bars repeat their texture too. A ``"mesh"`` object is the
+file's triangles (:func:`scenes.assets.load_mesh_file`) scaled and posed; it is textured by its
+``texture`` on **generated** UVs (each face projected along the axis nearest its normal, in
+metres: exact frequency on axis-facing faces, stretched by at most sqrt(3) elsewhere; faces get
+their own corners, shading keeps the file's smooth vertex normals), or, with ``own_texture =
+True`` and a file that has a texture image and UVs, by **its own** texture;
+``mesh.metadata["texture_source"]`` says which (``"generated"`` or ``"own"``). A mesh is
+double-sided unless it is watertight, consistently wound and of positive volume.
+
+Closed kinds (box, sphere, cylinder, fence, grid) wind counter-clockwise seen from outside (outward normals,
 right-handed frame). Open kinds (plane, moebius, terrain) are single surfaces that can be seen
 from behind (the Moebius strip has no consistent side at all): ``mesh.metadata["double_sided"]``
 is True for them and a renderer should not cull their back faces.
@@ -27,6 +37,7 @@ import numpy as np
 import trimesh
 from PIL import Image
 
+from scenes.assets import load_mesh_file
 from scenes.spec import ObjectSpec, SceneSpec
 from scenes.textures import band_limited_noise, make_texture
 
@@ -91,14 +102,17 @@ def _plane(obj: ObjectSpec) -> _Local:
 
 
 def _box(obj: ObjectSpec) -> _Local:
-    sx, sy, sz = obj.size
+    return _box_local(*obj.size, _gutter(obj, max(obj.size)))
+
+
+def _box_local(sx: float, sy: float, sz: float, g: float) -> _Local:
+    """A box centred at the origin, its six faces in one atlas separated by the gutter ``g``."""
     x, y, z = np.eye(3)
     # (normal, down, la, lb); atlas: the four sides in row 0 (height sy), top and bottom in
     # row 1 (height sz), charts separated by a gutter g
     charts = [(-z, y, sx, sy), (z, y, sx, sy), (x, y, sz, sy), (-x, y, sz, sy),
               (-y, z, sx, sz), (y, z, sx, sz)]
     half = np.array([sx, sy, sz]) / 2
-    g = _gutter(obj, max(sx, sy, sz))
     parts, offsets = [], []
     cursor = [0.0, 0.0]  # next u offset in rows 0 and 1
     for i, (n, down, la, lb) in enumerate(charts):
@@ -188,8 +202,52 @@ def _terrain(obj: ObjectSpec) -> _Local:
     return verts, faces, coords, (width, depth)
 
 
+def _bars(obj: ObjectSpec) -> _Local:
+    """Fence (vertical bars) or grid (vertical bars, horizontal ones ``thickness`` behind).
+
+    Every vertical bar shares one atlas chart (the same texture: a repetitive structure), every
+    horizontal bar another, below it.
+    """
+    width, height, spacing, t = obj.size
+    g = _gutter(obj, max(width, height))
+    n_x = math.floor(width / spacing + 1e-9) + 1
+    xs = (np.arange(n_x) - (n_x - 1) / 2) * spacing
+    vert = _box_local(t, height, t, g)
+    parts = [(vert[0] + (x, 0.0, 0.0), vert[1], vert[2]) for x in xs]
+    offsets = [(0.0, 0.0)] * len(parts)
+    extent = vert[3]
+    if obj.kind == "grid":
+        n_y = math.floor(height / spacing + 1e-9) + 1
+        ys = (np.arange(n_y) - (n_y - 1) / 2) * spacing
+        hor = _box_local(width, t, t, g)
+        parts += [(hor[0] + (0.0, y, t), hor[1], hor[2]) for y in ys]
+        offsets += [(0.0, extent[1] + g)] * n_y
+        extent = (max(extent[0], hor[3][0]), extent[1] + g + hor[3][1])
+    return (*_merge(parts, offsets), extent)
+
+
+def _triplanar(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                np.ndarray, tuple[float, float]]:
+    """Generated UVs in metres: each face projected along the axis its normal is closest to.
+
+    Faces get their own corners (``(3 M, 3)`` vertices, faces ``arange``) so charts never share
+    a texture coordinate; a surface frequency is exact on faces normal to an axis and stretched
+    by at most ``sqrt(3)`` elsewhere. Every chart maps into one patch of the texture.
+    """
+    tri = verts[faces]
+    normal = np.abs(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
+    axis = np.argmax(normal, axis=1)
+    pick = np.array([[2, 1], [0, 2], [0, 1]])[axis]  # x: (z, y), y: (x, z), z: (x, y)
+    corners = tri.reshape(-1, 3)
+    index = np.repeat(pick, 3, axis=0)
+    coords = np.take_along_axis(corners, index, axis=1)
+    coords = coords - coords.min(axis=0)
+    extent = tuple(float(max(e, 1e-9)) for e in coords.max(axis=0))
+    return corners, np.arange(len(corners)).reshape(-1, 3), coords, extent
+
+
 _BUILDERS = {"plane": _plane, "box": _box, "sphere": _sphere, "cylinder": _cylinder,
-             "moebius": _moebius, "terrain": _terrain}
+             "moebius": _moebius, "terrain": _terrain, "fence": _bars, "grid": _bars}
 
 
 # --------------------------------------------------------------------------- public API
@@ -219,19 +277,51 @@ def build_mesh(obj: ObjectSpec) -> trimesh.Trimesh:
     """
     if not isinstance(obj, ObjectSpec):
         raise TypeError(f"obj must be an ObjectSpec, got {type(obj).__name__}")
-    verts, faces, coords, extent = _BUILDERS[obj.kind](obj)
     transform = obj.pose.matrix()
+    metadata = {"name": obj.name, "kind": obj.kind, "double_sided": obj.kind in OPEN_KINDS}
+    if obj.kind == "mesh":
+        return _file_mesh(obj, transform, metadata)
+    verts, faces, coords, extent = _BUILDERS[obj.kind](obj)
     world = verts @ transform[:3, :3].T + transform[:3, 3]
-    uv = np.column_stack([coords[:, 0] / extent[0], 1.0 - coords[:, 1] / extent[1]])
-    image = Image.fromarray(make_texture(obj.texture, extent=extent), mode="RGB")
-    material = trimesh.visual.material.SimpleMaterial(
+    return _textured(obj, world, faces, coords, extent, _vertex_normals(world, faces), metadata)
+
+
+def _file_mesh(obj: ObjectSpec, transform: np.ndarray, metadata: dict) -> trimesh.Trimesh:
+    """A mesh file's object: scaled, posed, textured by its own texture or on generated UVs."""
+    data = load_mesh_file(obj.path)
+    (scale,) = obj.size
+    local = data.vertices * scale
+    world = local @ transform[:3, :3].T + transform[:3, 3]
+    normals = _vertex_normals(world, data.faces)
+    metadata["double_sided"] = not data.closed
+    if obj.own_texture and data.image is not None:
+        metadata["texture_source"] = "own"
+        material = _material(Image.fromarray(np.asarray(data.image), mode="RGB"), obj)
+        visual = trimesh.visual.TextureVisuals(uv=np.asarray(data.uv), material=material)
+        return trimesh.Trimesh(vertices=world, faces=data.faces, vertex_normals=normals,
+                               visual=visual, process=False, validate=False, metadata=metadata)
+    metadata["texture_source"] = "generated"
+    corners, faces, coords, extent = _triplanar(local, data.faces)
+    world = corners @ transform[:3, :3].T + transform[:3, 3]
+    return _textured(obj, world, faces, coords, extent, normals[data.faces].reshape(-1, 3),
+                     metadata)
+
+
+def _material(image: Image.Image, obj: ObjectSpec) -> trimesh.visual.material.SimpleMaterial:
+    return trimesh.visual.material.SimpleMaterial(
         image=image, diffuse=[255, 255, 255, 255], ambient=[255, 255, 255, 255],
         specular=[0, 0, 0, 255], name=obj.name or obj.kind)
+
+
+def _textured(obj: ObjectSpec, world: np.ndarray, faces: np.ndarray, coords: np.ndarray,
+              extent: tuple[float, float], normals: np.ndarray, metadata: dict
+              ) -> trimesh.Trimesh:
+    uv = np.column_stack([coords[:, 0] / extent[0], 1.0 - coords[:, 1] / extent[1]])
+    image = Image.fromarray(make_texture(obj.texture, extent=extent), mode="RGB")
+    material = _material(image, obj)
     visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
-    return trimesh.Trimesh(
-        vertices=world, faces=faces, vertex_normals=_vertex_normals(world, faces), visual=visual,
-        process=False, validate=False,
-        metadata={"name": obj.name, "kind": obj.kind, "double_sided": obj.kind in OPEN_KINDS})
+    return trimesh.Trimesh(vertices=world, faces=faces, vertex_normals=normals, visual=visual,
+                           process=False, validate=False, metadata=metadata)
 
 
 def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -42,6 +42,7 @@ from stereoforge.validation import (
 
 __all__ = [
     "TEXTURE_KINDS",
+    "SKIMAGE_PHOTOS",
     "MAX_EXTENT",
     "OBJECT_KINDS",
     "TextureSpec",
@@ -59,8 +60,9 @@ __all__ = [
     "load_scene",
 ]
 
-#: Texture kinds understood by :func:`scenes.textures.make_texture`.
-TEXTURE_KINDS: tuple[str, ...] = ("noise", "checker", "stripes", "constant")
+#: Texture kinds understood by :func:`scenes.textures.make_texture` (``"image"``: a photograph,
+#: :mod:`scenes.photos`).
+TEXTURE_KINDS: tuple[str, ...] = ("noise", "checker", "stripes", "constant", "image")
 
 #: Object kinds and the meaning of their ``size`` tuple.
 OBJECT_KINDS: dict[str, tuple[str, ...]] = {
@@ -70,13 +72,31 @@ OBJECT_KINDS: dict[str, tuple[str, ...]] = {
     "cylinder": ("radius", "height"),
     "moebius": ("radius", "width"),
     "terrain": ("width", "depth", "amplitude"),
+    "fence": ("width", "height", "spacing", "thickness"),
+    "grid": ("width", "height", "spacing", "thickness"),
+    "mesh": ("scale",),
 }
+
+#: Object kinds whose ``size`` may hold zero (terrain's amplitude) -- by label.
+_ZERO_SIZES = frozenset({"amplitude"})
+
+#: Dataclass field metadata: the field is left out of :func:`scene_to_dict` while it holds its
+#: default, so that scenes written before it existed keep their bytes (``scene.json``).
+_OMIT_DEFAULT = {"omit_default": True}
 
 #: Bound of every length and coordinate of a scene, metres: a size is in ``(0, MAX_EXTENT]`` and
 #: each translation component in ``[-MAX_EXTENT, MAX_EXTENT]``. A kilometre-wide terrain is
 #: 1e3; beyond 1e6 float32 vertices lose centimetres and GL clips or drops the geometry
 #: (a plane of size 1e300 rendered as an empty image).
 MAX_EXTENT = 1e6
+
+#: Photographs shipped with scikit-image (``skimage.data.<name>()``, no download), usable as
+#: ``TextureSpec(kind="image", image="skimage:<name>")``.
+SKIMAGE_PHOTOS: tuple[str, ...] = (
+    "astronaut", "brick", "camera", "cell", "chelsea", "clock", "coffee", "coins", "grass",
+    "gravel", "hubble_deep_field", "immunohistochemistry", "moon", "page", "rocket",
+    "text")
+_SKIMAGE_PREFIX = "skimage:"
 
 _FORMAT_VERSION = 1
 _MAX_SEED = 2**63  # TOML integers are signed 64-bit
@@ -105,12 +125,15 @@ class TextureSpec:
 
     Parameters
     ----------
-    kind : {"noise", "checker", "stripes", "constant"}
+    kind : {"noise", "checker", "stripes", "constant", "image"}
         ``"noise"``: isotropic band-limited noise centred on ``frequency``. ``"checker"``: a
         checkerboard, one period = two squares. ``"stripes"``: stripes across direction ``angle``.
-        ``"constant"``: textureless, grey level ``mean``.
+        ``"constant"``: textureless, grey level ``mean``. ``"image"``: the photograph ``image``
+        (:mod:`scenes.photos`), scaled so that its mean spatial frequency lands on
+        ``frequency``, turned by ``angle``, at an offset drawn from ``seed``.
     frequency : float
-        Spatial frequency on the surface in cycles per metre, > 0.
+        Spatial frequency on the surface in cycles per metre, > 0 (of a photograph: its
+        power-weighted mean frequency, :func:`scenes.photos.photo_frequency`).
     contrast : float
         In [0, 1]. Grey level = ``clip(mean + contrast * 0.5 * pattern, 0, 1)`` with the pattern
         in [-1, 1]; 0 gives a constant image.
@@ -121,7 +144,13 @@ class TextureSpec:
     seed : int
         Seed of the noise pattern (and the phase of checker/stripes), in [0, 2**63).
     angle : float
-        Orientation in degrees of the checker and stripe pattern (ignored by noise/constant).
+        Orientation in degrees of the checker, stripe and image pattern (ignored by
+        noise/constant).
+    image : str
+        Kind ``"image"`` only (and required there): ``"skimage:<name>"`` (a photograph shipped with
+        scikit-image, :data:`scenes.photos.SKIMAGE_PHOTOS`), an image file, or a folder of image
+        files (one chosen by ``seed``). Paths are used as written (relative ones from the
+        working directory). Checked when the texture is made (:class:`scenes.photos.AssetError`).
 
     Examples
     --------
@@ -136,10 +165,20 @@ class TextureSpec:
     color: tuple[float, float, float] = (1.0, 1.0, 1.0)
     seed: int = 0
     angle: float = 0.0
+    image: str = field(default="", metadata=_OMIT_DEFAULT)
 
     def __post_init__(self) -> None:
-        check_choice(check_type(self.kind, "TextureSpec.kind", str), "TextureSpec.kind",
-                     TEXTURE_KINDS)
+        kind = check_choice(check_type(self.kind, "TextureSpec.kind", str), "TextureSpec.kind",
+                            TEXTURE_KINDS)
+        check_type(self.image, "TextureSpec.image", str)
+        if (kind == "image") != bool(self.image):
+            raise fail("TextureSpec.image", "a photograph for kind 'image', and only for it",
+                       f"kind {kind!r} with image {self.image!r}",
+                       fix="give image = 'skimage:brick', a file or a folder with kind 'image'"
+                       if kind == "image" else "drop image, or set kind = 'image'")
+        if self.image.startswith(_SKIMAGE_PREFIX):
+            check_choice(self.image[len(_SKIMAGE_PREFIX):], "TextureSpec.image (skimage:<name>)",
+                         SKIMAGE_PHOTOS)
         _set(self, "frequency", check_real(self.frequency, "TextureSpec.frequency", lo=0.0,
                                            lo_open=True))
         _set(self, "contrast", check_real(self.contrast, "TextureSpec.contrast", lo=0.0, hi=1.0))
@@ -213,6 +252,17 @@ class ObjectSpec:
       camera frame) in ``[-amplitude, amplitude]``. The relief is band-limited noise from
       ``seed`` (this object's geometry seed, not the texture's) with centre frequency
       ``4 / min(width, depth)`` cycles per metre.
+    - ``"fence"`` ``(width, height, spacing, thickness)``: a row of vertical square bars
+      (``thickness`` x ``height`` x ``thickness``) in the local ``x``-``y`` plane, centred, one
+      every ``spacing`` across ``width`` (as many as fit, the row centred); a thin and repetitive
+      structure. ``thickness < spacing``.
+    - ``"grid"`` ``(width, height, spacing, thickness)``: the fence's vertical bars plus horizontal
+      bars (``width`` x ``thickness`` x ``thickness``) one every ``spacing`` down ``height``, set
+      ``thickness`` behind the vertical ones (local ``+z``) so no two faces are coplanar: a wire
+      grid. ``thickness < spacing``.
+    - ``"mesh"`` ``(scale,)``: the triangle mesh in the file ``path`` (OBJ, PLY, STL, GLB, ...
+      through trimesh), its coordinates times ``scale``, then ``pose`` (see
+      :mod:`scenes.primitives` for its texture).
 
     Parameters
     ----------
@@ -234,6 +284,13 @@ class ObjectSpec:
     material : MaterialSpec
         Specular reflectance (default matte; see :mod:`scenes.materials`). Written to a scene
         file only when not matte.
+    path : str
+        Kind ``"mesh"`` only (and required there): the mesh file, used as written (relative
+        paths from the working directory). Loaded when the mesh is built
+        (:class:`scenes.photos.AssetError` if trimesh cannot load it).
+    own_texture : bool
+        Kind ``"mesh"`` only: use the file's own texture (its UVs and image) when it has one,
+        instead of ``texture`` on generated UVs. False by default.
 
     Examples
     --------
@@ -249,11 +306,23 @@ class ObjectSpec:
     segments: int = 64
     seed: int = 0
     material: MaterialSpec = field(default_factory=MaterialSpec)
+    path: str = field(default="", metadata=_OMIT_DEFAULT)
+    own_texture: bool = field(default=False, metadata=_OMIT_DEFAULT)
 
     def __post_init__(self) -> None:
         check_type(self.material, "ObjectSpec.material", MaterialSpec)
         kind = check_choice(check_type(self.kind, "ObjectSpec.kind", str), "ObjectSpec.kind",
                             OBJECT_KINDS)
+        check_type(self.path, "ObjectSpec.path", str)
+        check_type(self.own_texture, "ObjectSpec.own_texture", bool)
+        if (kind == "mesh") != bool(self.path):
+            raise fail("ObjectSpec.path", "a mesh file for kind 'mesh', and only for it",
+                       f"kind {kind!r} with path {self.path!r}",
+                       fix="give path = 'model.obj' with kind 'mesh'" if kind == "mesh"
+                       else "drop path, or set kind = 'mesh'")
+        if self.own_texture and kind != "mesh":
+            raise fail("ObjectSpec.own_texture", "False unless kind is 'mesh'",
+                       f"True for a {kind}", fix="drop own_texture")
         check_type(self.pose, "ObjectSpec.pose", Pose)
         check_type(self.texture, "ObjectSpec.texture", TextureSpec)
         check_type(self.name, "ObjectSpec.name", str)
@@ -261,11 +330,14 @@ class ObjectSpec:
         size = _vec(self.size, f"ObjectSpec.size of a {kind} {labels}", len(labels))
         for i, (label, value) in enumerate(zip(labels, size)):
             check_real(value, f"ObjectSpec.size[{i}] ({label} of a {kind})", lo=0.0,
-                       lo_open=label != "amplitude", hi=MAX_EXTENT,
+                       lo_open=label not in _ZERO_SIZES, hi=MAX_EXTENT,
                        fix=f"sizes are metres, at most MAX_EXTENT = {MAX_EXTENT:g}")
         if kind == "moebius" and not size[1] < 2 * size[0]:
             raise fail("ObjectSpec.size of a moebius ('radius', 'width')", "width < 2 * radius",
                        repr(size), fix="narrow the strip: a wider one self-intersects")
+        if kind in ("fence", "grid") and not size[3] < size[2]:
+            raise fail(f"ObjectSpec.size of a {kind} {labels}", "thickness < spacing",
+                       repr(size), fix="thinner bars or a wider spacing: the bars would merge")
         _set(self, "size", size)
         _set(self, "segments", check_int(self.segments, "ObjectSpec.segments", lo=3,
                                          hi=_MAX_SEGMENTS))
@@ -390,8 +462,9 @@ def _to_plain(value: Any) -> Any:
         return [_to_plain(v) for v in value]
     if hasattr(value, "__dataclass_fields__"):
         return {f.name: _to_plain(getattr(value, f.name)) for f in fields(value)
-                if (type(value), f.name) not in _WRITTEN_IF_SET
-                or getattr(value, f.name) != _WRITTEN_IF_SET[type(value), f.name]}
+                if not ((type(value), f.name) in _WRITTEN_IF_SET
+                        and getattr(value, f.name) == _WRITTEN_IF_SET[type(value), f.name])
+                and not (f.metadata.get("omit_default") and getattr(value, f.name) == f.default)}
     return value
 
 

@@ -23,6 +23,7 @@ from scenes.materials import LAMP_KINDS, SPECULAR_MODELS, LampSpec, MaterialSpec
 from scenes.spec import (
     MAX_EXTENT,
     OBJECT_KINDS,
+    SKIMAGE_PHOTOS,
     TEXTURE_KINDS,
     LightSpec,
     ObjectSpec,
@@ -44,11 +45,21 @@ def _vec3(elements: st.SearchStrategy[float]) -> st.SearchStrategy[tuple[float, 
     return st.tuples(elements, elements, elements)
 
 
-def texture_specs(*, kinds: tuple[str, ...] = TEXTURE_KINDS) -> st.SearchStrategy[TextureSpec]:
-    """Valid :class:`TextureSpec` values of the given ``kinds`` (any finite numbers in range)."""
-    return st.builds(TextureSpec, kind=st.sampled_from(kinds),
-                     frequency=st.floats(min_value=0.0, exclude_min=True, allow_infinity=False),
-                     contrast=_unit, mean=_unit, color=_vec3(_unit), seed=_seed, angle=_finite)
+#: Object kinds that need no file (``"mesh"`` needs one: build it yourself).
+_FILELESS_KINDS = tuple(k for k in OBJECT_KINDS if k != "mesh")
+
+
+@st.composite
+def texture_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = TEXTURE_KINDS) -> TextureSpec:
+    """Valid :class:`TextureSpec` values of the given ``kinds`` (any finite numbers in range;
+    ``"image"`` textures name a scikit-image photograph)."""
+    kind = draw(st.sampled_from(kinds))
+    image = ("skimage:" + draw(st.sampled_from(SKIMAGE_PHOTOS))) if kind == "image" else ""
+    return TextureSpec(kind=kind, image=image,
+                       frequency=draw(st.floats(min_value=0.0, exclude_min=True,
+                                                allow_infinity=False)),
+                       contrast=draw(_unit), mean=draw(_unit), color=draw(_vec3(_unit)),
+                       seed=draw(_seed), angle=draw(_finite))
 
 
 def poses() -> st.SearchStrategy[Pose]:
@@ -66,13 +77,18 @@ def sizes(draw: st.DrawFn, kind: str) -> tuple[float, ...]:
         out[2] = draw(st.floats(min_value=0.0, max_value=1e3))
     if kind == "moebius":
         out[1] = min(out[0] * draw(st.floats(min_value=1e-3, max_value=1.99)), MAX_EXTENT)
+    if kind in ("fence", "grid"):  # thickness < spacing
+        out[3] = out[2] * draw(st.floats(min_value=1e-3, max_value=0.99))
+        if not 0 < out[3] < out[2]:
+            out[3] = out[2] / 2
     return tuple(out)
 
 
 @st.composite
-def object_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = tuple(OBJECT_KINDS),
+def object_specs(draw: st.DrawFn, *, kinds: tuple[str, ...] = _FILELESS_KINDS,
                  textures: st.SearchStrategy[TextureSpec] | None = None) -> ObjectSpec:
-    """Valid :class:`ObjectSpec` values (pose, size, texture, name, segments, seed)."""
+    """Valid :class:`ObjectSpec` values (pose, size, texture, name, segments, seed) of every kind
+    but ``"mesh"`` (which needs a file)."""
     kind = draw(st.sampled_from(kinds))
     return ObjectSpec(kind, draw(poses()), draw(sizes(kind)),
                       draw(textures if textures is not None else texture_specs()),

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from scenes.photos import photo_pixels_per_metre, photo_texture
 from scenes.spec import TextureSpec
 
 __all__ = ["make_texture", "texture_shape", "band_limited_noise", "PIXELS_PER_CYCLE",
@@ -43,7 +44,8 @@ def texture_shape(spec: TextureSpec, *, extent: tuple[float, float],
     """Image shape ``(H, W)`` that :func:`make_texture` produces for these arguments.
 
     With ``pixels_per_metre=None`` the sampling is ``NOISE_PIXELS_PER_CYCLE * spec.frequency``
-    for noise, ``PIXELS_PER_CYCLE * spec.frequency`` for checker and stripes (``"constant"``:
+    for noise, ``PIXELS_PER_CYCLE * spec.frequency`` for checker and stripes, one texel per
+    photo pixel for ``"image"`` (:func:`scenes.photos.photo_pixels_per_metre`; ``"constant"``:
     ``_CONSTANT_SIDE`` pixels along the longer side), reduced where needed so that no side
     exceeds ``max_side``. Each side is then adjusted, within ``[3, max_side]``: never a power of
     two (llvmpipe, the CPU rasteriser, compiles separate shader variants for power-of-two
@@ -67,6 +69,8 @@ def texture_shape(spec: TextureSpec, *, extent: tuple[float, float],
             ppm = _CONSTANT_SIDE / max(width, height)
         elif spec.kind == "noise":
             ppm = NOISE_PIXELS_PER_CYCLE * spec.frequency
+        elif spec.kind == "image":
+            ppm = photo_pixels_per_metre(spec)
         else:
             ppm = PIXELS_PER_CYCLE * spec.frequency
     else:
@@ -239,6 +243,8 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
     - ``"stripes"``: square wave of ``frequency`` cycles per metre along the direction at
       ``angle`` degrees from ``u`` toward ``v`` (``angle=0``: vertical stripes).
     - ``"constant"``: ``p = 0``.
+    - ``"image"``: a photograph, :func:`scenes.photos.photo_texture` (same ``mean``, ``contrast``
+      and ``color`` rule, ``p`` from the photograph's normalised grey levels per channel).
 
     Patterns and grey levels are computed in float32 (checker and stripe phases in float64). The random phase (checker, stripes)
     and the noise come from ``np.random.default_rng(spec.seed)`` only: the same arguments give
@@ -276,6 +282,8 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
     h, w = texture_shape(spec, extent=extent, pixels_per_metre=pixels_per_metre,
                          max_side=max_side)
     du, dv = width / w, height / h
+    if spec.kind == "image":
+        return photo_texture(spec, (h, w), (width, height))
     rng = np.random.default_rng(spec.seed)
     if spec.kind == "constant" or spec.contrast == 0.0:
         grey = np.full((h, w), np.float32(spec.mean))

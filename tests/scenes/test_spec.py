@@ -117,9 +117,10 @@ def _obj_dict(**changes) -> dict:
      r"unknown key 'colour' in scene\.light"),
     ({"name": "s", "objects": [_obj_dict(kind="cube")]},
      r"objects\[0\]: ObjectSpec\.kind: expected one of \['plane', 'box', 'sphere', 'cylinder', "
-     r"'moebius', 'terrain'\], got 'cube'"),
+     r"'moebius', 'terrain', 'fence', 'grid', 'mesh'\], "
+     r"got 'cube'"),
     ({"name": "s", "objects": [_obj_dict(texture={"kind": "perlin"})]},
-     r"objects\[0\]\.texture.*\['noise', 'checker', 'stripes', 'constant'\], got 'perlin'"),
+     r"objects\[0\]\.texture.*\['noise', 'checker', 'stripes', 'constant', 'image'\], got 'perlin'"),
     ({"name": "s", "objects": [{"pose": {}, "size": [1.0]}]},
      r"objects\[0\] is missing the required key\(s\) \['kind'\]"),
     ({"objects": [_obj_dict()]}, r"scene is missing the required key\(s\) \['name'\]"),

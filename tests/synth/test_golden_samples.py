@@ -26,8 +26,9 @@ from synth.dataset.run import produce_sample
 GOLDEN = Path(__file__).with_name("golden_samples.json")
 # config -> the pinned sample: planes 0 (noise, gain, bias), texture-sweep 0 (boxes, 3 occluders,
 # the edge-density search), flying 4 (every photometric model: blur, gamma, gain, bias, noise, JPEG),
-# imperfect-rig 0 (distortion, rotation, offsets: the real cameras and flow0.flo)
-CONFIGS = {"planes": 0, "texture-sweep": 0, "flying": 4, "imperfect-rig": 0}
+# imperfect-rig 0 (distortion, rotation, offsets: the real cameras and flow0.flo),
+# middlebury-like 0 (photograph textures, fences and grids, textureless walls)
+CONFIGS = {"planes": 0, "texture-sweep": 0, "flying": 4, "imperfect-rig": 0, "middlebury-like": 0}
 
 
 def _digest(path: Path) -> str:

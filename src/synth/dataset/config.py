@@ -65,9 +65,13 @@ _SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
 _DISTORTION = ("k1", "k2", "p1", "p2", "k3")
 #: The ``[rig]`` keys of the ideal rig (always written by :meth:`DatasetConfig.to_dict`).
 _IDEAL_RIG = ("width", "height", "fx", "baseline", "near", "far")
-_OCCLUDER_KINDS = ("box", "sphere", "cylinder")
 # synth.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they agree)
 _GROUND_TRUTH = ("depth", "normals", "instance", "semantic", "occlusion_right")
+_OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh")
+_OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
+#: ``[scene]`` keys drawn once per object or occluder (``synth.dataset.sampling``), not per sample.
+PER_OBJECT_KEYS = ("occluder_mesh", "object_texture", "object_image", "object_frequency_px", "object_contrast",
+                   "object_mean", "object_angle")
 
 #: Every section, key and its schema (``""`` is the top level).
 SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
@@ -141,6 +145,21 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
                                 doc="im1E: linear exposure factor of the right view"),
         "lighting_variant": Key("float", None, lo=0.0, hi=180.0,
                                 doc="im1L: degrees the light directions turn for the right view"),
+        "occluder_mesh": Key("str", None, doc="mesh file of 'mesh' occluders (OBJ, PLY, STL, "
+                             "GLB, ...), drawn per occluder"),
+        "object_texture": Key("str", None, choices=_OBJECT_TEXTURES,
+                              doc="texture kind, drawn per object (repeat a choice to weight it)"),
+        "object_image": Key("str", None, doc="photograph of an 'image' texture, drawn per "
+                            "object: skimage:<name>, a file or a folder"),
+        "object_frequency_px": Key("float", None, lo=0.0, lo_open=True, hi=0.5,
+                                   doc="texture frequency per object, cycles per pixel at its "
+                                       "depth (of a photograph: its mean frequency)"),
+        "object_contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast per object"),
+        "object_mean": Key("float", None, lo=0.0, hi=1.0, doc="texture mean grey per object"),
+        "object_angle": Key("float", None, doc="texture angle per object, degrees"),
+        "textureless_area": Key("float", None, lo=0.0, hi=1.0,
+                                doc="target share of the left image showing constant-textured "
+                                    "objects (measured, synth.textureless)"),
     },
     "photometric": {
         "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,
@@ -157,7 +176,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
 })
 
 #: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
-EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig")
+EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig", "middlebury-like")
 
 
 # --------------------------------------------------------------------------- distributions
@@ -336,6 +355,45 @@ class _Parser:
         self.keys(data, section, list(SCHEMA[section]))
         return {k: data[k] for k in SCHEMA[section] if k in data}
 
+    def meshes(self, scene: Mapping[str, Dist]) -> None:
+        """'mesh' occluders have a mesh file, and every file named loads."""
+        kinds = scene["occluder_kind"].args
+        if "mesh" in kinds and "occluder_mesh" not in scene:
+            raise self.fail("scene", "occluder_kind", "occluder_mesh beside a 'mesh' choice",
+                            "no occluder_mesh", fix="add occluder_mesh = 'model.obj'")
+        from scenes.assets import load_mesh_file
+
+        for value in scene["occluder_mesh"].args if "occluder_mesh" in scene else ():
+            try:
+                load_mesh_file(value)
+            except StereoforgeError as exc:
+                raise self.fail("scene", "occluder_mesh", "a mesh file trimesh loads",
+                                repr(value), fix=str(exc)) from None
+
+    def per_object(self, scene: Mapping[str, Dist]) -> None:
+        """The per-object texture keys go together and name known photographs."""
+        given = [k for k in PER_OBJECT_KEYS if k in scene and k.startswith("object_")]
+        if not given:
+            return
+        if "object_texture" not in scene:
+            raise self.fail("scene", given[0], "object_texture beside it",
+                            "no object_texture", fix="add object_texture = {choice = [...]}")
+        if "edge_density" in scene:
+            raise self.fail("scene", "edge_density", "edge_density or object_texture, not both",
+                            "both", fix="edge_density sets one frequency for every object")
+        kinds = scene["object_texture"].args if scene["object_texture"].kind != "fixed" else (
+            scene["object_texture"].args[0],)
+        if "image" in kinds and "object_image" not in scene:
+            raise self.fail("scene", "object_texture", "object_image beside an 'image' choice",
+                            "no object_image",
+                            fix="add object_image = {choice = ['skimage:brick', ...]}")
+        from scenes.spec import SKIMAGE_PHOTOS
+
+        for value in scene["object_image"].args if "object_image" in scene else ():
+            if value.startswith("skimage:") and value[8:] not in SKIMAGE_PHOTOS:
+                raise self.fail("scene", "object_image", f"skimage:<name> with a name in "
+                                f"{list(SKIMAGE_PHOTOS)}", repr(value))
+
     def parse(self, data: Mapping[str, Any]) -> DatasetConfig:
         if not isinstance(data, Mapping):
             raise ConfigError(f"{self.source}: a configuration is a table, got "
@@ -389,6 +447,8 @@ class _Parser:
             raise self.fail("scene", "edge_density", "a textured surface",
                             "texture = 'constant', which has none",
                             fix="choose another texture or remove edge_density")
+        self.per_object(scene)
+        self.meshes(scene)
         return DatasetConfig(
             name=name, seed=top.get("seed", 0), count=top.get("count", 10),
             preview=top.get("preview", False), rig=rig,
@@ -452,7 +512,7 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
     >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
     Traceback (most recent call last):
     ...
-    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind']; did you mean 'occluders'?
+    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'occluder_mesh', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle', 'textureless_area']; did you mean 'occluders'?
     >>> loads_config("[rig]\\nwidth = 4\\n", source="my.toml")
     Traceback (most recent call last):
     ...
@@ -479,7 +539,7 @@ def list_examples() -> list[str]:
     Examples
     --------
     >>> list_examples()
-    ['planes', 'texture-sweep', 'flying', 'imperfect-rig']
+    ['planes', 'texture-sweep', 'flying', 'imperfect-rig', 'middlebury-like']
     """
     return list(EXAMPLES)
 

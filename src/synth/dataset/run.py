@@ -82,6 +82,7 @@ __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_s
 _FORMAT_VERSION = 2
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _PHOTOMETRIC_STREAM = 3
+_TEXTURELESS_STREAM = 5  # the order in which objects are made textureless
 _HEADER_KEYS = {"config": dict, "format": str}
 
 
@@ -121,6 +122,18 @@ class DatasetRun:
     seconds: float
 
 
+def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
+                 ) -> tuple[Any, float]:
+    """The scene with objects made constant toward ``textureless_area`` (stream 5 orders them),
+    and its measured textureless fraction (:mod:`synth.textureless`)."""
+    from synth.textureless import match_textureless, object_coverage
+
+    rig = config.rig
+    coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)
+    return match_textureless(scene, float(draw.params["scene.textureless_area"]), coverage,
+                             rig.width * rig.height, stream(draw.seed, _TEXTURELESS_STREAM))
+
+
 def _r(value: float | None) -> float | None:
     return None if value is None else round(float(value), 6)
 
@@ -155,6 +168,9 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     if draw.edge_density is not None:
         search = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer)
         scene = search.scene
+    textureless = None
+    if "scene.textureless_area" in draw.params:
+        scene, textureless = _textureless(scene, config, draw, renderer)
     lap("search")
     lighting = None
     if draw.relight is not None:
@@ -192,6 +208,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
         "occluded_fraction": _r(np.count_nonzero(pair.mask_left == 128) / mask_size),
         "invalid_fraction": _r(np.count_nonzero(pair.mask_left == 0) / mask_size),
     }
+    if textureless is not None:  # only then: other datasets keep their manifests' bytes
+        stats["textureless_fraction"] = _r(textureless)
     lap("stats")
     record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
               "params": dict(draw.params), "stats": stats}

@@ -5,7 +5,9 @@ Sample ``i`` of a dataset with seed ``s`` has the seed
 (an int in ``[0, 2**63)``), and everything about the sample derives from that one integer through
 independent streams ``SeedSequence(sample_seed, spawn_key=(k,))``: ``k = 0`` the parameter draws,
 ``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise, ``4`` the materials,
-lamps and relighting, ``5``/``6`` the photometric noise of ``im1E``/``im1L``. Nothing depends on
+lamps and relighting, ``5``/``6`` the photometric noise of ``im1E``/``im1L``, ``7`` the per-object
+textures (the ``object_*`` keys, drawn for every object in scene order: kind, then photograph,
+frequency, contrast, mean, angle where given, then the texture's seed). Nothing depends on
 which worker renders the sample, nor when.
 """
 
@@ -27,15 +29,16 @@ from scenes import (
     TextureSpec,
     get_preset,
 )
+from scenes.assets import load_mesh_file
 from scenes.materials import turn_lights
-from synth.dataset.config import DatasetConfig
+from synth.dataset.config import PER_OBJECT_KEYS, DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
 
 __all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px"]
 
 (_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC, _STREAM_LIGHT,
- STREAM_EXPOSURE_NOISE, STREAM_LIGHTING_NOISE) = range(7)
+ STREAM_EXPOSURE_NOISE, STREAM_LIGHTING_NOISE, _STREAM_TEXTURES) = range(8)
 #: [scene] keys drawn per object or per lamp from the light stream, not once per sample.
 _PER_ITEM = ("specular", "shininess", "specular_model", "roughness", "lamp_intensity",
              "lamp_shadows")
@@ -106,6 +109,7 @@ class SampleDraw:
 def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Generator,
                texture_kind: str | None) -> list[ObjectSpec]:
     rig = config.rig
+    draw_mesh = config.scene.get("occluder_mesh")
     out = []
     f_px = draw.get("frequency_px") or _DEFAULT_OCCLUDER_FREQUENCY_PX
     for i in range(int(draw["occluders"])):
@@ -115,16 +119,32 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
         side = float(draw["occluder_size"]) * rig.width * z / rig.fx  # metres
         rotation = tuple(float(a) for a in rng.uniform(0.0, 360.0, size=3))
         kind = str(draw["occluder_kind"])
-        size = {"box": (side, side, side), "sphere": (side / 2,),
-                "cylinder": (side / 2, side)}[kind]
+        path = ""
+        if kind == "mesh":  # scaled to a bounding-box diagonal of `side`, its box centred there
+            path = str(draw_mesh.sample(rng))
+            data = load_mesh_file(path)
+            lo, hi = data.vertices.min(axis=0), data.vertices.max(axis=0)
+            scale = side / max(float(np.linalg.norm(hi - lo)), 1e-12)
+            size = (scale,)
+        elif kind in ("fence", "grid"):  # six bars across, 1.5 px thick (at least side / 40)
+            thick = max(side / 40.0, 1.5 * z / rig.fx)
+            size = (side, side, side / 6.0, min(thick, side / 12.0))
+        else:
+            size = {"box": (side, side, side), "sphere": (side / 2,),
+                    "cylinder": (side / 2, side)}[kind]
         contrast = draw.get("contrast")
         texture = TextureSpec(
             kind=texture_kind or "noise", frequency=f_px * rig.fx / z,
             contrast=0.8 if contrast is None else float(contrast),
             mean=float(rng.uniform(0.3, 0.7)), seed=int(rng.integers(0, 2**63)),
             angle=float(rng.uniform(0.0, 180.0)))
-        out.append(ObjectSpec(kind, Pose(translation=(x, y, z), rotation_deg=rotation), size,
-                              texture, name=f"occluder{i}", segments=32))
+        pose = Pose(translation=(x, y, z), rotation_deg=rotation)
+        if path:
+            shift = pose.rotation() @ ((lo + hi) / 2 * size[0])
+            pose = Pose(translation=(x - shift[0], y - shift[1], z - shift[2]),
+                        rotation_deg=rotation)
+        out.append(ObjectSpec(kind, pose, size, texture, name=f"occluder{i}", segments=32,
+                              path=path))
     return out
 
 
@@ -172,6 +192,28 @@ def _materials_and_lamps(scene: SceneSpec, draw: Mapping[str, Any], config: Data
     return scene, drawn
 
 
+def _object_textures(scene: SceneSpec, config: DatasetConfig, rng: np.random.Generator
+                     ) -> SceneSpec:
+    """Every object's texture drawn from the ``object_*`` keys (unset ones keep its own)."""
+    dists = config.scene
+    objects = []
+    for obj in scene.objects:
+        kind = str(dists["object_texture"].sample(rng))
+        image = str(dists["object_image"].sample(rng)) if "object_image" in dists else ""
+        t = obj.texture
+        changes: dict[str, Any] = {"kind": kind, "image": image if kind == "image" else ""}
+        if "object_frequency_px" in dists:
+            f_px = float(dists["object_frequency_px"].sample(rng))
+            changes["frequency"] = f_px * config.rig.fx / obj.pose.translation[2]
+        for key in ("contrast", "mean", "angle"):
+            if f"object_{key}" in dists:
+                changes[key] = float(dists[f"object_{key}"].sample(rng))
+        changes["seed"] = int(rng.integers(0, 2**63))
+        texture = TextureSpec(**{**{f: getattr(t, f) for f in t.__dataclass_fields__}, **changes})
+        objects.append(dataclasses.replace(obj, texture=texture))
+    return dataclasses.replace(scene, objects=tuple(objects))
+
+
 def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """Draw sample ``index``'s parameters and build its scene.
 
@@ -188,7 +230,8 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """
     seed = sample_seed(config.seed, index)
     rng = stream(seed, _STREAM_PARAMS)
-    scene_draw = {k: d.sample(rng) for k, d in config.scene.items() if k not in _PER_ITEM}
+    scene_draw = {k: d.sample(rng) for k, d in config.scene.items()
+                  if k not in _PER_ITEM and k not in PER_OBJECT_KEYS}
     phot_draw = {k: d.sample(rng) for k, d in config.photometric.items()}
     preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
     scene = get_preset(str(scene_draw["base"]), seed=preset_seed)
@@ -200,6 +243,8 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
                           description=scene.description)
     scene = retexture(scene, fx=config.rig.fx, frequency_px=scene_draw.get("frequency_px"),
                       contrast=scene_draw.get("contrast"), kind=kind)
+    if "object_texture" in config.scene:
+        scene = _object_textures(scene, config, stream(seed, _STREAM_TEXTURES))
     light_rng = stream(seed, _STREAM_LIGHT)
     scene, per_item = _materials_and_lamps(scene, scene_draw, config, light_rng)
     relight = None

@@ -20,7 +20,7 @@ from synth.rig import StereoRig
 __all__ = ["SCHEMA", "StudyConfig", "StudyConfigError", "load_study_config",
            "loads_study_config", "list_studies"]
 
-_TEXTURES = tuple(k for k in TEXTURE_KINDS if k != "constant")  # a textured surface
+_TEXTURES = tuple(k for k in TEXTURE_KINDS if k not in ("constant", "image"))  # procedural, textured
 _MAX_SEED = 2**63
 _TABLES = ("rig", "scene", "match")
 
