@@ -76,8 +76,9 @@ def test_memory_url_has_the_folder_bytes_resumes_and_verifies(tmp_path, renderer
     assert verify_dataset("memory://store-run") == []
     fs = fsspec.filesystem("memory")
     # a sample whose record is gone, or whose file is truncated, is rendered again
-    fs.rm("/store-run/000001/files.json")
-    fs.pipe_file("/store-run/000002/im0.png", fs.cat_file("/store-run/000002/im0.png")[:-5])
+    fs.rm("/store-run/records/000001.json")
+    sample2 = "/store-run/MiddEval3/trainingF/000002/im0.png"
+    fs.pipe_file(sample2, fs.cat_file(sample2)[:-5])
     problems = verify_dataset("memory://store-run")
     assert any("000001: no completion record" in p for p in problems), problems
     assert any("000002/im0.png" in p and "truncated" in p for p in problems), problems
