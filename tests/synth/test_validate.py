@@ -183,3 +183,33 @@ def test_a_hanging_matcher_times_out_per_sample_and_the_run_goes_on(tiny_suite, 
     errors = {(r["value"], r["seed"]): r["error"] for r in rows}
     assert errors.pop(("0.0", "0")) == "timed out after 2 s"  # the first pair
     assert set(errors.values()) == {""}  # a fresh child answered every later pair
+
+
+@pytest.mark.gl
+def test_hazard_axes_change_what_they_say_and_keep_the_exact_ground_truth():
+    from synth.render import Renderer
+    from synth.validate.axes import AXES, axis_config
+    from synth.validate.pairs import render_sample
+
+    def sample(name, value):
+        axis = AXES[name]
+        cfg = axis_config("quick", axis, value)
+        cfg["rig"].update(width=64, height=48)
+        return render_sample(cfg, 0, renderer, scene_hook=axis.scene, value=value)
+
+    with Renderer(64, 48) as renderer:
+        base_pair, base, _, _ = sample("exposure", 1.0)
+        _, brighter, _, _ = sample("exposure", 2.0)
+        assert brighter.right.mean() > base.right.mean() + 10  # the matcher's right view is im1E
+        assert np.array_equal(brighter.left, base.left)
+        relit_pair, relit, _, _ = sample("lighting_change", 90.0)
+        assert not np.array_equal(relit.right, base.right)
+        shiny_pair, _, scene, _ = sample("specular", 2.0)
+        assert all(o.material.specular == 2.0 for o in scene.objects)
+        _, _, fenced, _ = sample("thin_structures", 3)
+        assert sum(o.kind == "fence" for o in fenced.objects) == 3
+        offset_pair, offset, _, _ = sample("vertical_offset", 3.0)
+        assert offset_pair.rig.errors is not None and offset_pair.flow_left is not None
+        # the geometry (GT) is the ideal rig's: the same exact disparity as the base pair
+        for pair in (relit_pair, shiny_pair, offset_pair):
+            assert np.array_equal(pair.disp_left, base_pair.disp_left)

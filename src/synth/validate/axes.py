@@ -165,6 +165,28 @@ def _textureless_card(scene: Any, rig: Any, fraction: float) -> Any:
     return replace(scene, objects=(card, *scene.objects))
 
 
+def _specular(cfg: dict, strength: float) -> None:
+    """Every object specular (Blinn-Phong, shininess 64) with ``strength``; 0 = matte."""
+    if float(strength) > 0:
+        cfg["scene"].update(specular_fraction=1.0, specular=float(strength), shininess=64.0)
+
+
+def _thin_structures(cfg: dict, count: int) -> None:
+    cfg["scene"].update(occluder_kind="fence", occluders=int(count))
+
+
+def _exposure(cfg: dict, factor: float) -> None:
+    """The right camera's exposure times ``factor`` (linear light); 1 = the same exposure."""
+    if float(factor) != 1.0:
+        cfg["scene"]["exposure_variant"] = float(factor)
+
+
+def _lighting(cfg: dict, degrees: float) -> None:
+    """The right view lit by the light directions turned by ``degrees``; 0 = the same light."""
+    if float(degrees) > 0:
+        cfg["scene"]["lighting_variant"] = float(degrees)
+
+
 # --------------------------------------------------------------------------- the registry
 for _axis in (
     Axis("texture_frequency", "texture frequency, cycles per pixel", (0.05, 0.125, 0.3),
@@ -195,5 +217,19 @@ for _axis in (
          (0.0, 0.25, 0.5), (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6), scene=_textureless_card),
     Axis("repetitive_period", "period of vertical stripes, pixels", (16.0, 8.0, 4.0),
          (32.0, 16.0, 12.0, 8.0, 6.0, 4.0, 3.0), config=_repetitive),
+    # the hazards (docs/ground-truth.md): each one changes only what the right camera sees, or
+    # adds thin geometry; the ground truth stays the ideal rig's exact disparity
+    Axis("specular", "specular strength of every object (Blinn-Phong, shininess 64)",
+         (0.0, 0.5, 2.0), (0.0, 0.25, 0.5, 1.0, 2.0, 4.0), config=_specular),
+    Axis("exposure", "right/left exposure ratio in linear light (im1E)", (0.5, 1.0, 2.0),
+         (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0), config=_exposure),
+    Axis("lighting_change", "right view's light directions turned, degrees (im1L)",
+         (0.0, 30.0, 90.0), (0.0, 15.0, 30.0, 60.0, 90.0, 135.0), config=_lighting),
+    Axis("vertical_offset", "rectification error: right principal point moved down, pixels",
+         (0.0, 1.0, 3.0), (0.0, 0.25, 0.5, 1.0, 2.0, 3.0, 5.0), key="rig.right_dy_px"),
+    Axis("roll", "rectification error: right camera rotated about its optical axis, degrees",
+         (0.0, 0.5, 2.0), (0.0, 0.25, 0.5, 1.0, 2.0, 3.0), key="rig.right_rz_deg"),
+    Axis("thin_structures", "number of wire fences (bars 1-2 px wide) in front of the scene",
+         (0, 1, 3), (0, 1, 2, 3, 5), config=_thin_structures),
 ):
     register_axis(_axis)

@@ -91,8 +91,16 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
         scene = scene_hook(scene, config.rig, value)
     if draw.edge_density is not None:
         scene = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer).scene
-    pair = render_pair(scene, config.rig, renderer=renderer)
-    images = apply_photometric(pair.left, pair.right, draw.photometric,
+    lighting = None
+    if draw.relight is not None:
+        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
+    pair = render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
+                       lighting=lighting)
+    # an exposure or lighting change between the cameras: the matcher's right view is the
+    # variant (Middlebury's im1E / im1L), under the same sensor model
+    right = (pair.right_lighting if pair.right_lighting is not None
+             else pair.right_exposure if pair.right_exposure is not None else pair.right)
+    images = apply_photometric(pair.left, right, draw.photometric,
                                rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
     return pair, images, scene, draw
 
