@@ -56,3 +56,13 @@ def test_bench_realism_refuses_a_data_folder_without_third(tmp_path):
                                   str(tmp_path / "b")])
     assert r.exit_code != 0
     assert "Error:" in r.output and "third/" in r.output and "Traceback" not in r.output
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_middlebury_like_meets_the_realism_target(tmp_path, middlebury_dir):
+    """The shipped config's 20 pairs are as hard as the six real scenes for CT-9, CT-21 and
+    SGBM-5 (within 5 points of bad-3) and rank them alike (docs/realism.md)."""
+    result = bench_realism(config="middlebury-like", count=20, data=middlebury_dir,
+                           out=tmp_path, workers=2)
+    assert result.passed, format_verdict(result)

@@ -90,18 +90,17 @@ def _real_rows(data: Path | None) -> list[dict]:
 
 def _synthetic_rows(config: str, dataset_dir: Path, count: int, workers: int,
                     backend: str) -> list[dict]:
-    from matcher.io import load_middlebury_2014
-    from synth.dataset import read_manifest, run_dataset
+    from synth.dataset import run_dataset
+    from synth.dataset.loader import StereoDataset
 
-    run_dataset(config, out=dataset_dir, count=count, workers=workers, backend=backend,
+    run_dataset(config, dataset_dir, count=count, workers=workers, backend=backend,
                 progress=False)
-    samples = [load_middlebury_2014(dataset_dir / r["dir"])
-               for r in read_manifest(dataset_dir)[:count]]
-    d_max = max(float(np.max(s.disp_left, where=np.isfinite(s.disp_left), initial=0.0))
-                for s in samples)
+    data = StereoDataset(dataset_dir)
+    samples = [data[i] for i in range(min(count, len(data)))]
+    d_max = max(float(np.max(s["disp"], where=s["valid"], initial=0.0)) for s in samples)
     search = max(4, 4 * math.ceil(math.ceil(1.1 * d_max) / 4))
-    return [{"set": str(config), "sample": s.name, "max_disparity": search,
-             **_bad3(s.left, s.right, s.disp_left, search)} for s in samples]
+    return [{"set": str(config), "sample": f"{i:06d}", "max_disparity": search,
+             **_bad3(s["left"], s["right"], s["disp"], search)} for i, s in enumerate(samples)]
 
 
 def _mean_row(rows: Sequence[dict], name: str) -> dict:
