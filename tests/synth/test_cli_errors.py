@@ -123,6 +123,8 @@ CASES = [
      2, ["nowhere"]),
     ("bench dataset: zero workers", ["bench", "dataset", "--workers", "0", "--out", "o"], 2,
      ["--workers"]),
+    ("bench realism: no third/ under --data", ["bench", "realism", "--data", "nowhere", "--out",
+                                                "o"], 2, ["--data", "third/"]),
     ("bench validate: bad workers", ["bench", "validate", "--workers", "x", "--out", "o"], 2,
      ["--workers"]),
     ("validate: a MATCHER that does not resolve", ["validate", "sad", "--out", "o"], 2,

@@ -72,7 +72,7 @@ def test_bad_lit_keys_are_one_config_error(line: str, needle: str) -> None:
 
 
 def _sample(root: Path) -> Path:
-    return root / "000000"
+    return root / "MiddEval3" / "trainingF" / "000000"
 
 
 @pytest.mark.gl
@@ -82,7 +82,7 @@ def test_lit_dataset_writes_variants_and_masks_and_keeps_the_gt(tmp_path, render
         (tmp_path / f"{out.name}.toml").write_text(text)
         run_dataset(tmp_path / f"{out.name}.toml", out=out, workers=1, progress=False)
     for i in range(2):
-        a, b = lit / f"{i:06d}", matte / f"{i:06d}"
+        a, b = _sample(lit).with_name(f"{i:06d}"), _sample(matte).with_name(f"{i:06d}")
         assert not (b / "mask0spec.png").exists()
         assert (b / "im1E.png").read_bytes() == (b / "im1.png").read_bytes()
         for name in ("disp0GT.pfm", "disp1GT.pfm", "mask0nocc.png"):

@@ -46,7 +46,7 @@ def test_study_with_matcher_strings_keeps_pairs_and_eval_dataset_agrees(tmp_path
     assert by["0.05", "ct:5"]["pobmp"] == by["0.05", "ct"]["pobmp"]  # the same matcher
     assert by["0.05", f"py:{HERE}:broken"]["pobmp"] == "100.0"
     assert by["0.05", "ct:5"]["window"] == ""
-    assert sorted(p.name for p in (out / "pairs").iterdir()) == ["000000", "000001"]
+    assert sorted(p.name for p in (out / "pairs" / "MiddEval3" / "trainingF").iterdir()) == ["000000", "000001"]
     # a kept study scores another matcher on exactly its pairs
     runner = CliRunner()
     result = runner.invoke(main, ["eval-dataset", str(out), "--matcher", "ct:5",
@@ -60,8 +60,8 @@ def test_study_with_matcher_strings_keeps_pairs_and_eval_dataset_agrees(tmp_path
     from matcher.metrics import evaluate
 
     est = read_pfm(tmp_path / "e" / "000000.pfm")
-    gt = read_pfm(out / "pairs" / "000000" / "disp0GT.pfm")
-    occ = read_image(out / "pairs" / "000000" / "mask0nocc.png")
+    gt = read_pfm(out / "pairs" / "MiddEval3" / "trainingF" / "000000" / "disp0GT.pfm")
+    occ = read_image(out / "pairs" / "MiddEval3" / "trainingF" / "000000" / "mask0nocc.png")
     m = evaluate(est, gt, delta=3.0, region="nonocc", occlusion_mask=occ)
     assert repr(m.pobmp) == by["0.05", "ct"]["pobmp"]
 
@@ -84,7 +84,7 @@ def test_eval_dataset_on_a_dataset_folder(tmp_path, renderer):
 def test_eval_dataset_refuses_a_folder_without_samples(tmp_path):
     result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path), "--matcher", "ct"])
     assert result.exit_code == 2
-    assert "no samples (NNNNNN/sample.json)" in result.output
+    assert "no samples (MiddEval3/trainingF/NNNNNN/sample.json)" in result.output
 
 
 def test_study_refuses_a_matcher_that_does_not_resolve(tmp_path):

@@ -509,10 +509,10 @@ def loads_config(text: str, *, source: str = "<string>") -> DatasetConfig:
 
     Examples
     --------
-    >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")
+    >>> loads_config("[scene]\\nocluders = 2\\n", source="my.toml")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', 'texture', 'frequency_px', 'contrast', 'edge_density', 'occluders', 'occluder_size', 'occluder_depth', 'occluder_kind', 'occluder_mesh', 'object_texture', 'object_image', 'object_frequency_px', 'object_contrast', 'object_mean', 'object_angle', 'textureless_area']; did you mean 'occluders'?
+    stereoforge.errors.ConfigError: my.toml:2: unknown key 'ocluders' in [scene]; valid keys: ['base', ...]; did you mean 'occluders'?
     >>> loads_config("[rig]\\nwidth = 4\\n", source="my.toml")
     Traceback (most recent call last):
     ...

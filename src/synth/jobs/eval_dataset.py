@@ -1,7 +1,7 @@
 """``stereoforge eval-dataset``: score any matcher on a dataset folder or a study's kept pairs.
 
 The pairs are read through the dataset's manifest (:func:`synth.dataset.manifest.read_manifest`:
-every ``NNNNNN/sample.json``), so a folder of ``stereoforge dataset --format middlebury`` and the
+every ``MiddEval3/trainingF/NNNNNN/sample.json``), so a folder of ``stereoforge dataset --format middlebury`` and the
 ``pairs/`` folder of ``stereoforge study --keep-pairs`` (or the study folder itself) both work.
 Each sample folder is a MiddEval3 scene (``im0.png``, ``im1.png``, ``disp0GT.pfm``,
 ``mask0nocc.png``). Regions: the ``mask_<region>.png`` files where present (validate's pairs),
@@ -36,7 +36,7 @@ def _root(folder: Path) -> tuple[Path, list[dict]]:
             records = read_manifest(root)
             if records:
                 return root, records
-    raise DatasetError(f"{folder}: no samples (NNNNNN/sample.json) here or under pairs/; pass a "
+    raise DatasetError(f"{folder}: no samples (MiddEval3/trainingF/NNNNNN/sample.json) here or under pairs/; pass a "
                        "dataset folder (stereoforge dataset --format middlebury) or a study "
                        "folder made with --keep-pairs")
 
@@ -55,6 +55,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.adapters import resolve_matcher
     from matcher.io import atomic_write_bytes, read_calib, read_image, read_pfm, write_pfm
     from matcher.regions import REGIONS, region_scores
+    from synth.dataset.layout import sample_dir
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
@@ -69,7 +70,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     writer.writerow(COLUMNS)
     try:
         for rec in records:
-            sample = root / rec["dir"]
+            sample = sample_dir(root, "middlebury", rec["index"])
             try:
                 left, right = read_image(sample / "im0.png"), read_image(sample / "im1.png")
                 gt = read_pfm(sample / "disp0GT.pfm")

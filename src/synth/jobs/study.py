@@ -116,16 +116,25 @@ def _user_matcher(spec: str) -> Any:
     return _RESOLVED[spec]
 
 
+def _kept(out: Path, index: int) -> Path:
+    from synth.dataset.layout import sample_dir
+
+    return sample_dir(out / "pairs", "middlebury", index)
+
+
 def _keep_pair(out: Path, index: int, cfg: StudyConfig, record: dict, pair: Any, images: Any,
                scene: Any, seed: int) -> None:
-    """Write the cell's pair (as the matchers saw it) to ``out/pairs/NNNNNN`` atomically, with a
-    ``sample.json`` that :func:`synth.dataset.manifest.read_manifest` reads."""
+    """Write the cell's pair (as the matchers saw it) to ``out/pairs/MiddEval3/trainingF/NNNNNN``
+    (a dataset's layout) atomically, with a ``sample.json`` that
+    :func:`synth.dataset.manifest.read_manifest` reads."""
     import dataclasses
     import shutil
 
     from synth.export import write_pair
 
-    final = out / "pairs" / f"{index:06d}"
+    from synth.dataset.layout import sample_dir
+
+    final = sample_dir(out / "pairs", "middlebury", index)
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
@@ -295,7 +304,7 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
         scores as "no estimate" (PoBMP 100) and its message is kept in the cell's JSON
         (``matcher_errors``). Not drawn in the heatmaps and summary tables (they are per window).
     keep_pairs : bool
-        Also keep every cell's pair, as the matchers saw it, in ``out/pairs/NNNNNN/`` (MiddEval3
+        Also keep every cell's pair, as the matchers saw it, in ``out/pairs/MiddEval3/trainingF/NNNNNN/`` (MiddEval3
         folders with ``sample.json``; the index is the cell's): ``stereoforge eval-dataset
         out/pairs --matcher M`` scores another matcher on exactly these pairs later.
 
@@ -323,7 +332,7 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     prints = [_fingerprint(cfg, c) for c in cells]
     pending = [i for i, c in enumerate(cells)
                if _load_cell(out / _cell_path(cfg, *c), prints[i]) is None
-               or (keep_pairs and not (out / "pairs" / f"{i:06d}" / "sample.json").is_file())]
+               or (keep_pairs and not (_kept(out, i) / "sample.json").is_file())]
     threads = max(1, (os.cpu_count() or 1) // workers) if workers > 1 else None
     task = _CellTask(cfg, out, cells, backend, threads, keep_pairs)
     bar = progress_bar(total=len(cells), initial=len(cells) - len(pending), enabled=progress,
