@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from synth.cli.options import backend_option, engine_option, format_option, out_dir_option, workers_option
+from synth.cli.options import (backend_option, engine_option, format_option, note, out_dir_option,
+                               workers_option)
 
 __all__ = ["dataset"]
 
@@ -46,6 +47,13 @@ def dataset(config, out, count, workers, engine, address, fmt, backend, verify_d
         raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
                                "--out DIR, or --verify DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
+    from synth.kernel_cache import DATASET_KERNELS, compile_notice
+
+    with compile_notice(DATASET_KERNELS, note) as cold:
+        if cold:  # compile here once, before any worker: the workers then load them from the cache
+            from synth.dataset.warm import warm_sample_kernels
+
+            warm_sample_kernels()
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 
