@@ -86,7 +86,7 @@ def fig_colour_maps(scene: str, gt: np.ndarray, maps: Mapping[str, np.ndarray], 
     fig = Figure(figsize=(3.2 * n, 5.6))
     axes = fig.subplots(2, n, squeeze=False)
     disp_cmap = matplotlib.colormaps["viridis"].with_extremes(bad=_UNKNOWN)
-    err_cmap = matplotlib.colormaps["magma"].with_extremes(bad=_UNKNOWN)
+    err_cmap = matplotlib.colormaps["YlOrRd"].with_extremes(bad=_UNKNOWN)
     panels = {"ground truth": np.where(known, gt, np.nan)}
     for name, d in maps.items():
         panels[name] = np.where(known, d, np.nan)
