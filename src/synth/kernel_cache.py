@@ -7,8 +7,8 @@ are missing: every ``@njit(..., cache=True)`` function of a file (found by parsi
 index file ``<stem>.<name>-<line>.py<XY>.nbi`` where numba keeps it (``NUMBA_CACHE_DIR``, else
 the ``__pycache__`` beside the source, else the user-wide cache); a file none of whose kernels
 has one was never compiled here.
-:func:`compile_notice` prints one line before the work when some are missing and one line with
-numba's compile time after it; on a warm cache it prints nothing.
+:func:`compile_notice` prints one line before the work when all are missing (a first run) and
+one line with numba's compile time after it; otherwise it prints nothing.
 
 A stale index (source edited since) is not detected: numba then recompiles silently, as before.
 """
@@ -102,12 +102,15 @@ def compile_notice(sources: Sequence[str], echo: Callable[[str], None], *,
                    what: str = "numba kernels") -> Iterator[bool]:
     """Around work that compiles the kernels of ``sources``: say so first when the cache is cold.
 
-    Yields whether the cache was cold. When it was, ``echo`` gets one line before the block
+    Cold means that no file of ``sources`` has a kernel in the cache (a first run; which of
+    them compile depends on the method, so a partly filled cache says nothing). Yields whether
+    the cache was cold. When it was, ``echo`` gets one line before the block
     (what compiles, that it happens once) and one after it with the seconds numba spent
     compiling in this process (numba's ``numba:compile`` events). Warm: no output.
     """
     missing = missing_kernels(sources)
-    if not missing:
+    present = [rel for rel in dict.fromkeys(sources) if (src := _source(rel)) and src.is_file()]
+    if not missing or missing != present:  # some kernels cached: not a first run, stay quiet
         yield False
         return
     echo(f"compiling {what} once (not in numba's cache yet: {', '.join(missing)}; later runs "

@@ -64,3 +64,23 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
     assert first[1].startswith("compiled numba kernels in ") and first[1].endswith(" s in all)")
     assert first[2] == "cold"
     assert run() == ["warm"]  # the index numba wrote is found: nothing printed
+
+
+def test_a_partly_filled_cache_says_nothing(tmp_path, monkeypatch):
+    from synth.kernel_cache import compile_notice
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    said: list[str] = []
+    with compile_notice(["synth/pair.py", "synth/photometric.py"], said.append) as cold:
+        pass
+    assert cold and len(said) == 2 and said[0].startswith("compiling numba kernels once")
+    source = _source("synth/pair.py")  # one file cached (another method's kernels): no notice
+    _cache_dir(source).mkdir()
+    line = next(i for i, text in enumerate(source.read_text().splitlines(), 1)
+                if text.startswith("def _mask_kernel")) - 1
+    tag = f"py{sys.version_info[0]}{sys.version_info[1]}"
+    (_cache_dir(source) / f"pair._mask_kernel-{line}.{tag}.nbi").write_bytes(b"")
+    said.clear()
+    with compile_notice(["synth/pair.py", "synth/photometric.py"], said.append) as cold:
+        pass
+    assert not cold and said == []
