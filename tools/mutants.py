@@ -90,14 +90,15 @@ MUTANTS = (
     Mutant(
         "N miscounted (one decrease too few)",
         "src/matcher/_kernels/adaptive.py",
-        (("if rn == n_decreases and", "if rn == n_decreases - 1 and"),),
+        (("(rn == n_decreases) & (ch == largest)", "(rn == n_decreases - 1) & (ch == largest)"),),
         "AWCT stops after N - 1 consecutive decreases of the edge proportion",
     ),
     Mutant(
         "AWCT ignores the smaller window",
         "src/matcher/_kernels/adaptive.py",
-        (("            if b >= total_bits:\n                continue",
-          "            if b >= 0:\n                continue"),),
+        (("    if lowest >= total_bits:\n        _row_cost(", "    if lowest >= 0:\n        _row_cost("),
+         ("            if b < total_bits:\n                out[x] = np.float32(_rescore(",
+          "            if b < 0:\n                out[x] = np.float32(_rescore(")),
         "pixels with a small window are scored over the largest window's code, not their prefix",
     ),
 )
@@ -254,6 +255,36 @@ MUTANTS += (
         "scene_from_dict rebuilds every object at the default pose",
         _SCENES,
     ),
+    Mutant(
+        "sample seed ignores the index",
+        "src/synth/dataset/sampling.py",
+        (("spawn_key=(int(index),)", "spawn_key=(0,)"),),
+        "every sample of a dataset draws the same scene and sensor (one seed for all)",
+        _SAMPLING,
+    ),
+    Mutant(
+        "JPEG round trip of the left image only",
+        "src/synth/photometric.py",
+        (("out = [_jpeg(img, params.jpeg_quality) for img in out]",
+          "out = [_jpeg(out[0], params.jpeg_quality), out[1]]"),),
+        "the right image skips the JPEG round trip (the two views see different sensors)",
+        _PHOTOMETRIC,
+    ),
+    Mutant(
+        "disparity from fy",
+        "src/synth/rig.py",
+        (("d = np.divide(self.fx * self.baseline, z,", "d = np.divide(self.fy * self.baseline, z,"),),
+        "d = fy * B / Z: wrong for every rig with non-square pixels",
+        _CALIB,
+    ),
+    Mutant(
+        "stripes ignore their angle",
+        "src/scenes/textures.py",
+        (("along = math.cos(theta) * u[None, :] + math.sin(theta) * v[:, None]",
+          "along = u[None, :] + 0.0 * v[:, None]"),),
+        "stripes are vertical at any angle (checkers too, along one axis)",
+        _SCENES,
+    ),
 )
 
 
@@ -319,7 +350,8 @@ def run_mutant(mutant: Mutant | None, *, test_paths: list[str], python: str) -> 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("-k", default="", help="only mutants whose name contains this text")
+    parser.add_argument("-k", action="append", default=[],
+                        help="only mutants whose name contains this text (repeatable: any of them)")
     parser.add_argument("--list", action="store_true", help="list the mutants and exit")
     parser.add_argument("--under", action="append", default=[],
                         help="only mutants of files under this path (repeatable), e.g. src/synth")
@@ -329,7 +361,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-baseline", action="store_true",
                         help="skip the run of each test set on the unmutated copy")
     args = parser.parse_args(argv)
-    chosen = [m for m in MUTANTS if args.k in m.name
+    chosen = [m for m in MUTANTS if (not args.k or any(k in m.name for k in args.k))
               and (not args.under or any(m.path.startswith(u) for u in args.under))]
     if args.list:
         for m in chosen:

@@ -284,3 +284,69 @@ def test_match_on_a_full_disk_keeps_the_previous_file(small_disk, tmp_path):
     _check_one_error_line(result, 1, ["d.pfm", "no space left"])
     assert _listing(small_disk) == before  # no temporary file left
     assert (read_pfm(previous) == 7.0).all()  # the previous good file is intact
+
+
+# --------------------------------------------------------------------------- render --from-manifest
+_TINY = """\
+name = "tiny"
+seed = 5
+count = 2
+[rig]
+width = 48
+height = 32
+[scene]
+base = {choice = ["fronto_plane", "boxes"]}
+"""
+
+
+@pytest.fixture
+def tiny_dataset(tmp_path, renderer) -> Path:
+    from synth.dataset.run import run_dataset
+
+    config = tmp_path / "tiny.toml"
+    config.write_text(_TINY)
+    run_dataset(config, out=tmp_path / "ds", count=2, progress=False)
+    return tmp_path / "ds"
+
+
+def _disk_full_at(monkeypatch, name: str) -> list[str]:
+    """Make the first atomic write of a file ``name`` fail with ENOSPC (its rename, wherever it
+    is written); returns the names renamed before, the fault's included."""
+    real, staged = os.replace, []
+
+    def replace(src, dst, *a, **k):
+        staged.append(Path(dst).name)
+        if Path(dst).name == name and staged.count(name) == 1:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(src, dst, *a, **k)
+
+    monkeypatch.setattr(os, "replace", replace)
+    return staged
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("previous", [None, 1])
+def test_render_from_manifest_on_a_full_disk_keeps_the_previous_output(
+        tiny_dataset, tmp_path, monkeypatch, previous):
+    out = tmp_path / "one"
+    args = ["render", "--from-manifest", tiny_dataset, 0, "--out", out]
+    if previous is not None:  # a previous good output (another sample), overwritten on purpose
+        assert _invoke(["render", "--from-manifest", tiny_dataset, previous, "--out", out],
+                       tmp_path).exit_code == 0
+        args.append("--overwrite")
+    before = {str(p.relative_to(tmp_path)): p.read_bytes() for p in tmp_path.rglob("*")
+              if p.is_file()}
+    staged = _disk_full_at(monkeypatch, "disp0GT.pfm")
+    result = _invoke(args, tmp_path)
+    _check_one_error_line(result, 1, ["one/disp0GT.pfm", "no space left", "free some space"])
+    assert len(staged) > 1  # the fault came after other files of the sample were written
+    after = {str(p.relative_to(tmp_path)): p.read_bytes() for p in tmp_path.rglob("*")
+             if p.is_file()}
+    assert after == before  # nothing half-written, no temporary folder, the previous output intact
+    monkeypatch.undo()
+    again = _invoke(args, tmp_path)  # a rerun into the same --out works
+    assert again.exit_code == 0, again.output
+    sample = tiny_dataset / "000000"
+    expected = {p.name: p.read_bytes() for p in sample.iterdir() if p.name != "files.json"}
+    assert {name: (out / name).read_bytes() for name in expected} == expected
+    assert sorted(p.name for p in out.iterdir()) == sorted(expected)

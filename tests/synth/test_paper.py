@@ -35,7 +35,7 @@ def test_run_paper_writes_tables_report_and_figures(tmp_path):
     assert report == out / "report.md" and report.read_text().startswith("# The seed paper")
     with open(out / "table1.csv") as f:
         t1 = list(csv.DictReader(f))
-    assert list(t1[0]) == ["scene", "window", "method", "pobmp", "rms"]
+    assert list(t1[0])[:5] == ["scene", "window", "method", "pobmp", "rms"]  # + the paper's
     assert {(r["scene"], r["window"], r["method"]) for r in t1} == {
         (s, w, m) for s in ("ToyA", "ToyB") for w in ("3", "5") for m in ("ct", "cthw")}
     for name, methods in (("table2.csv", {"ct", "awct"}), ("table3.csv", {"sct", "awsct"})):
@@ -64,3 +64,34 @@ def test_run_paper_bad_input(tmp_path):
         run_paper(tmp_path, out=tmp_path / "o", windows=(4,))
     with pytest.raises(FileNotFoundError, match="data_dir"):
         run_paper(tmp_path, out=tmp_path / "o")
+
+
+@pytest.mark.slow
+def test_paper_table1_carries_the_papers_values_and_plots_them(tmp_path):
+    from synth.jobs.paper import PAPER_TABLE1
+
+    _scene(tmp_path, "Moebius", 4, 0)  # a paper scene (toy images): the paper's values apply
+    _scene(tmp_path, "ToyB", 6, 1)  # not in the paper: empty paper columns
+    out = tmp_path / "out"
+    run_paper(tmp_path, size="third", out=out, progress=False, windows=(3, 5, 15),
+              max_windows=(5,), scenes=("Moebius", "ToyB"), max_disparity=10)
+    with open(out / "table1.csv") as f:
+        t1 = list(csv.DictReader(f))
+    assert list(t1[0]) == ["scene", "window", "method", "pobmp", "rms", "paper_pobmp",
+                           "pobmp_minus_paper"]  # the old columns first, unchanged
+    for r in t1:
+        paper = PAPER_TABLE1.get(r["scene"], {}).get(int(r["window"]))
+        if paper is None:  # ToyB, and the paper's windows stop at 13
+            assert r["paper_pobmp"] == r["pobmp_minus_paper"] == ""
+            continue
+        ref = paper[("ct", "cthw").index(r["method"])]
+        assert float(r["paper_pobmp"]) == ref
+        assert float(r["pobmp_minus_paper"]) == pytest.approx(float(r["pobmp"]) - ref, abs=1e-4)
+    assert sum(r["paper_pobmp"] != "" for r in t1) == 4  # Moebius x {3, 5} x {ct, cthw}
+    for scene in ("Moebius", "ToyB"):
+        for kind in ("pobmp_window", "colour"):
+            assert (out / f"{kind}_{scene}.png").read_bytes()[:4] == b"\x89PNG"
+    colour = cv2.imread(str(out / "colour_Moebius.png"))
+    grey = np.all(colour == 127, axis=2)  # unknown ground truth (the left band) drawn grey
+    assert grey.sum() > 50
+    assert "pobmp_window" not in (out / "report.md").read_text()  # report.md as before

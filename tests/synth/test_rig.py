@@ -72,6 +72,14 @@ def test_depth_disparity_round_trip(z: float, fx: float, b: float) -> None:
     assert float(rig.depth_from_disparity(d)) == pytest.approx(z, rel=1e-12)
 
 
+def test_disparity_uses_fx_on_non_square_pixels() -> None:
+    """d = fx * B / Z with fx != fy (disparity is horizontal: fy plays no part)."""
+    rig = StereoRig(width=64, height=48, fx=60.0, fy=45.0, cx=31.5, cy=23.5, baseline=0.1)
+    assert float(rig.disparity_from_depth(2.0)) == 3.0  # 60 * 0.1 / 2 exactly; fy would give 2.25
+    assert float(rig.depth_from_disparity(3.0)) == 2.0
+    assert rig.middlebury_calib(ndisp=16, vmin=0, vmax=3)["baseline"] == 100.0  # mm
+
+
 def test_scaled_example() -> None:
     rig = StereoRig(width=64, height=48, fx=60.0, fy=50.0, cx=31.5, cy=20.0, baseline=0.1)
     half = rig.scaled(0.5)

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import LazyChoice, backend_option, engine_option, out_dir_option, workers_option
+from synth.cli.options import (LazyChoice, backend_option, engine_option, note,
+                               out_dir_option, workers_option)
 
 __all__ = ["dataset"]
 
@@ -80,6 +81,13 @@ def dataset(config, out, count, workers, engine, address, fmt, shard_size, disp_
         from synth.dataset.shards import check_disp_encoding
 
         disp_encoding = check_disp_encoding(fmt, disp_encoding)
+    from synth.kernel_cache import DATASET_KERNELS, compile_notice
+
+    with compile_notice(DATASET_KERNELS, note) as cold:
+        if cold:  # compile here once, before any worker: the workers then load them from the cache
+            from synth.dataset.warm import warm_sample_kernels
+
+            warm_sample_kernels()
     if engine == "local" and workers > 1:  # the worker server imports while this process does
         from synth.dataset.engine import start_worker_server
 

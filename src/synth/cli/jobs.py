@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import LazyChoice, backend_option, fail, out_dir_option, workers_option
+from synth.cli.options import LazyChoice, backend_option, fail, note, out_dir_option, workers_option
 
 __all__ = ["golden", "paper", "study"]
 
@@ -20,11 +20,13 @@ __all__ = ["golden", "paper", "study"]
 def paper(data, size, out) -> None:
     """Reproduce the seed paper's Tables 1-3 and figures on the real Middlebury scenes."""
     from synth.jobs.paper import run_paper
+    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
 
     if not (data / size).is_dir():
         fail(FileNotFoundError(
             f"no {size}/ folder under {data}; pass --data pointing at the Middlebury scenes"))
-    report = run_paper(data, size=size, out=out, progress=True)
+    with compile_notice(MATCHER_KERNELS, note):
+        report = run_paper(data, size=size, out=out, progress=True)
     click.echo(f"report: {report}")
 
 
@@ -48,9 +50,11 @@ def study(config, out, workers, backend, matchers, keep_pairs) -> None:
 
         start_worker_server(["synth.jobs.study"])
     from synth.jobs.study import run_study
+    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
 
-    path = run_study(config, out=out, workers=workers, progress=True, backend=backend,
-                     matchers=matchers, keep_pairs=keep_pairs)
+    with compile_notice(MATCHER_KERNELS, note):  # the workers compile too: this times the parent
+        path = run_study(config, out=out, workers=workers, progress=True, backend=backend,
+                         matchers=matchers, keep_pairs=keep_pairs)
     click.echo(f"results: {path / 'results.csv'}, summary: {path / 'summary.md'}")
 
 

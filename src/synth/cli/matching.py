@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import fail, method_option
+from synth.cli.options import fail, method_option, note
 
 __all__ = ["eval_cmd", "eval_dataset_cmd", "match_cmd"]
 
@@ -30,13 +30,15 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
     from matcher import match
     from matcher.io import read_image, write_pfm
     from synth.jobs.timing import first_and_warm
+    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
 
     if out.suffix.lower() != ".pfm":
         fail(ValueError(f"--out must be a .pfm file (got {out.name})"))
     left_img, right_img = read_image(left), read_image(right)
-    timed = first_and_warm(lambda: match(
-        left_img, right_img, method=method, window=window, max_disparity=max_disp,
-        lr_check=lr_check, subpixel=subpixel, aggregate=aggregate))
+    with compile_notice(MATCHER_KERNELS, note):
+        timed = first_and_warm(lambda: match(
+            left_img, right_img, method=method, window=window, max_disparity=max_disp,
+            lr_check=lr_check, subpixel=subpixel, aggregate=aggregate))
     result = timed.result
     write_pfm(out, result.disparity)  # atomic: a failure leaves a previous file intact
     invalid = 100.0 * float((~(result.disparity < float("inf"))).mean())

@@ -15,6 +15,7 @@ from typing import Any
 import click
 
 __all__ = [
+    "note",
     "LazyChoice",
     "backend_option",
     "engine_option",
@@ -44,6 +45,11 @@ class LazyChoice(click.Choice):
             module, name = self._target.split(":")
             self._loaded = (*self._extra, *getattr(importlib.import_module(module), name))
         return self._loaded
+
+
+def note(text: str) -> None:
+    """A progress remark on stderr (kept out of the command's own output)."""
+    click.echo(text, err=True)
 
 
 def fail(exc: Exception) -> None:

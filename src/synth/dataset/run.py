@@ -60,7 +60,7 @@ from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sam
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage import FsPath, commit_sample, dataset_path, is_local, remove_tree, write_bytes
-from synth.export import prepare_output_dir, write_pair
+from synth.export import staged_output_dir, write_pair
 from synth.formats import DATASET_FORMATS, KITTI_ROOT
 from synth.photometric import apply_photometric
 from synth.progress import progress as progress_bar
@@ -572,6 +572,9 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     (this is how a failed sample is reproduced). ``out`` receives the sample's files as in the
     dataset (Middlebury: ``im0.png ...``; KITTI: ``training/image_2/NNNNNN_10.png ...``) plus
     ``scene.json`` and ``sample.json``. A non-empty ``out`` is refused unless ``overwrite``.
+    The files are written into a temporary folder beside ``out`` and renamed into place when all
+    are written (:func:`synth.export.staged_output_dir`): a failure (disk full, a failed render)
+    leaves ``out`` as it was, and a rerun into it works.
 
     Returns
     -------
@@ -612,10 +615,14 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
                                              fix=MODIFIED_FIX)["seed"] != seed:
         raise DatasetError(f"{record} has another seed than sample {index} of {path}; the "
                            "dataset directory was modified")
-    dest = prepare_output_dir(out, overwrite=overwrite)
-    try:
-        with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer:
-            produce_sample(cfg, index, renderer, dest, header["format"])
-    except Exception as exc:
-        raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
-    return sorted(p for p in dest.rglob("*") if p.is_file())
+    dest = Path(out)
+    with staged_output_dir(dest, overwrite=overwrite) as stage:
+        try:
+            with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer:
+                produce_sample(cfg, index, renderer, stage, header["format"])
+        except OSError:
+            raise  # disk full, read-only: an environment error naming the file, not the sample
+        except Exception as exc:
+            raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
+        names = sorted(p.relative_to(stage) for p in stage.rglob("*") if p.is_file())
+    return [dest / name for name in names]

@@ -27,6 +27,7 @@ from matcher.edges import canny_edges
 from matcher.io import atomic_write_bytes, load_middlebury_2005, save_figure_atomic
 from matcher.match import match
 from matcher.metrics import evaluate
+from synth.jobs.paper_figures import PAPER_COLUMNS, fig_colour_maps, fig_pobmp_window, table1_with_paper
 from synth.progress import progress as progress_bar
 
 __all__ = ["PAPER_SCENES", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SIZES", "run_paper"]
@@ -269,10 +270,13 @@ def run_paper(
         Size variant (disparity PNG divisor 3 or 2; D = 85 or 128 unless ``max_disparity``).
     out : path-like
         Output folder (created). Files: ``table1.csv`` (scene, window, method in {ct, cthw},
-        pobmp, rms), ``table2.csv`` (scene, max_window, method in {ct, awct}, pobmp, rms, ops,
+        pobmp, rms, then the paper's PoBMP and ours minus it, empty where the paper has none:
+        :func:`synth.jobs.paper_figures.table1_with_paper`), ``table2.csv`` (scene, max_window, method in {ct, awct}, pobmp, rms, ops,
         reduction_ratio), ``table3.csv`` (the same for sct, awsct), ``report.md``,
         ``disparity_<scene>.png`` (Fig. 8), ``largest_<scene>.png`` (Figs. 9-14),
-        ``rms_<scene>.png`` (Figs. 15-20).
+        ``rms_<scene>.png`` (Figs. 15-20), ``pobmp_window_<scene>.png`` (PoBMP against the
+        window, the paper's Table 1 overlaid), ``colour_<scene>.png`` (colour-mapped
+        disparities and error maps with colour bars, unknown ground truth in the legend).
     progress : bool, default True
         Show a progress bar on stderr (:func:`synth.progress.progress`).
     windows : sequence of int
@@ -374,9 +378,15 @@ def run_paper(
         _fig_rms(scene, [r for r in t1 if r["scene"] == scene],
                  [r for r in t2 if r["scene"] == scene], out / names[2])
         figures += names
+        # added files, not in report.md's list (whose bytes stay as they were)
+        fig_pobmp_window(scene, [r for r in t1 if r["scene"] == scene], PAPER_TABLE1,
+                         _save_figure, out / f"pobmp_window_{scene}.png")
+        fig_colour_maps(scene, gt, {f"CT {max(windows)}x{max(windows)}": shown["ct"],
+                                    f"CTHW {max(windows)}x{max(windows)}": shown["cthw"]},
+                        d, _save_figure, out / f"colour_{scene}.png")
     bar.close()
 
-    _write_csv(out / "table1.csv", _T1_COLUMNS, t1)
+    _write_csv(out / "table1.csv", (*_T1_COLUMNS, *PAPER_COLUMNS), table1_with_paper(t1, PAPER_TABLE1))
     _write_csv(out / "table2.csv", _T23_COLUMNS, t2)
     _write_csv(out / "table3.csv", _T23_COLUMNS, t3)
     report = out / "report.md"
