@@ -96,4 +96,5 @@ def test_lit_dataset_writes_variants_and_masks_and_keeps_the_gt(tmp_path, render
     again = tmp_path / "again"
     render_from_manifest(lit, 1, out=again)
     for path in again.iterdir():  # variants and masks re-rendered alone: the same bytes
-        assert path.read_bytes() == (lit / "000001" / path.name).read_bytes(), path.name
+        assert path.read_bytes() == (_sample(lit).with_name("000001") / path.name).read_bytes(), \
+            path.name
