@@ -213,3 +213,29 @@ def test_hazard_axes_change_what_they_say_and_keep_the_exact_ground_truth():
         # the geometry (GT) is the ideal rig's: the same exact disparity as the base pair
         for pair in (relit_pair, shiny_pair, offset_pair):
             assert np.array_equal(pair.disp_left, base_pair.disp_left)
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_cli_validate_end_to_end_battery_report_and_exit_status(tiny_suite, tmp_path, renderer):
+    """The whole command: pairs, estimates, the property battery and report.html; exit 1 with
+    --fail-on properties only when a required property fails."""
+    import json
+
+    runner = CliRunner()
+    good = runner.invoke(main, ["validate", "ct:9", "--out", str(tmp_path / "good"), "--axes",
+                                "noise", "--against", "sgbm:5", "--fail-on", "properties"])
+    assert good.exit_code == 0, good.output
+    doc = json.loads((tmp_path / "good" / "properties.json").read_text())
+    assert doc["matcher"] and all(p["passed"] for p in doc["properties"] if p["required"])
+    page = (tmp_path / "good" / "report.html").read_text()
+    assert "sgbm:5" in page and "<img" in page and "No results.csv" not in page
+    broken = f"py:{os.path.join(os.path.dirname(__file__), 'user_matchers.py')}:broken"
+    for flags, status in (([], 0), (["--fail-on", "properties"], 1)):
+        r = runner.invoke(main, ["validate", broken, "--out", str(tmp_path / "bad"), "--axes",
+                                 "noise", "--against", "ct:5", *flags])
+        assert r.exit_code == status, r.output
+        assert "Traceback" not in r.output
+    doc = json.loads((tmp_path / "bad" / "properties.json").read_text())
+    failed = [p for p in doc["properties"] if p["required"] and not p["passed"]]
+    assert failed and all("ZeroDivisionError" in p["explanation"] for p in failed)
