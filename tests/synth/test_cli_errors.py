@@ -346,7 +346,7 @@ def test_render_from_manifest_on_a_full_disk_keeps_the_previous_output(
     monkeypatch.undo()
     again = _invoke(args, tmp_path)  # a rerun into the same --out works
     assert again.exit_code == 0, again.output
-    sample = tiny_dataset / "000000"
+    sample = tiny_dataset / "MiddEval3" / "trainingF" / "000000"
     expected = {p.name: p.read_bytes() for p in sample.iterdir() if p.name != "files.json"}
     assert {name: (out / name).read_bytes() for name in expected} == expected
     assert sorted(p.name for p in out.iterdir()) == sorted(expected)

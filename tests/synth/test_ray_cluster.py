@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -138,7 +139,7 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
         deadline = time.monotonic() + 180
         done = []
         while len(done) < 2 and time.monotonic() < deadline and thread.is_alive():
-            done = [p for p in out.glob("[0-9]" * 6) if (p / "files.json").is_file()]
+            done = list(out.glob("records/" + "[0-9]" * 6 + ".json"))
             time.sleep(0.01)
         worker_node = cluster.list_all_nodes()[1]
         cluster.remove_node(worker_node, allow_graceful=False)
@@ -152,7 +153,11 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
     assert any("runs again" in m for m in lost), lost  # its sample in flight was retried
     assert verify_dataset(out) == []  # every sample, every file whole, no stray .tmp folder
     reference = _files(out)
-    assert len({k.split("/")[0] for k in reference if k[0].isdigit()}) == count
+    assert len(list((out / "records").glob("*.json"))) == count
+
+    def first(files: dict) -> dict:  # the files of samples 0 .. _COUNT - 1
+        return {k: v for k, v in files.items()
+                if (m := re.search(r"(?:^|/)(\d{6})(?:/|\.json$)", k)) and int(m[1]) < _COUNT}
+
     # the first samples' bytes equal the local run's (same seed, same bytes, whatever the node)
-    assert {k: v for k, v in reference.items() if k[:6] < f"{_COUNT:06d}"} == {
-        k: v for k, v in local_runs.items() if k[:6] < f"{_COUNT:06d}"}
+    assert first(reference) == first(local_runs) and first(reference)

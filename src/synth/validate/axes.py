@@ -166,9 +166,9 @@ def _textureless_card(scene: Any, rig: Any, fraction: float) -> Any:
 
 
 def _specular(cfg: dict, strength: float) -> None:
-    """Every object specular (Blinn-Phong, shininess 64) with ``strength``; 0 = matte."""
+    """Every object specular (Blinn-Phong, the default shininess 32) with ``strength``; 0 = matte."""
     if float(strength) > 0:
-        cfg["scene"].update(specular_fraction=1.0, specular=float(strength), shininess=64.0)
+        cfg["scene"].update(specular_fraction=1.0, specular=float(strength))
 
 
 def _thin_structures(cfg: dict, count: int) -> None:
@@ -219,7 +219,7 @@ for _axis in (
          (32.0, 16.0, 12.0, 8.0, 6.0, 4.0, 3.0), config=_repetitive),
     # the hazards (docs/ground-truth.md): each one changes only what the right camera sees, or
     # adds thin geometry; the ground truth stays the ideal rig's exact disparity
-    Axis("specular", "specular strength of every object (Blinn-Phong, shininess 64)",
+    Axis("specular", "specular strength of every object (Blinn-Phong, shininess 32)",
          (0.0, 0.5, 2.0), (0.0, 0.25, 0.5, 1.0, 2.0, 4.0), config=_specular),
     Axis("exposure", "right/left exposure ratio in linear light (im1E)", (0.5, 1.0, 2.0),
          (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0), config=_exposure),
