@@ -33,8 +33,8 @@ __all__ = ["Axis", "AXES", "SUITES", "register_axis", "get_axis", "base_config",
 
 #: Suites: rig size, seeds (sample indices of the base config) and which values each axis uses.
 SUITES = {
-    "quick": {"width": 160, "height": 120, "seeds": (0, 1)},
-    "full": {"width": 320, "height": 240, "seeds": (0, 1, 2, 3, 4)},
+    "quick": {"width": 320, "height": 240, "seeds": (0, 1)},
+    "full": {"width": 640, "height": 480, "seeds": (0, 1, 2, 3, 4)},
 }
 
 
