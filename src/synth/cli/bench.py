@@ -11,6 +11,14 @@ from synth.cli.options import LazyChoice, backend_option, fail, out_dir_option
 __all__ = ["bench"]
 
 
+def _worker_counts(text: str) -> list[int]:
+    """``--workers 1,2`` -> [1, 2]; anything else is one Error line."""
+    parts = [w.strip() for w in text.split(",") if w.strip()]
+    if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
+        fail(ValueError(f"--workers must be positive ints separated by commas, got {text!r}"))
+    return [int(p) for p in parts]
+
+
 @click.group()
 def bench() -> None:
     """Benchmarks: print a table and write it (Markdown and CSV) under --out."""
@@ -92,16 +100,13 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend) -> 
     from synth.jobs.bench_render import parse_sizes, write_table
 
     names = [c.strip() for c in configs.split(",") if c.strip()]
-    parts = [w.strip() for w in workers_text.split(",") if w.strip()]
     if not names:
         fail(ValueError("--configs is empty; give example names such as planes,flying"))
-    if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
-        fail(ValueError(f"--workers must be positive ints separated by commas, got "
-                         f"{workers_text!r}"))
+    workers = _worker_counts(workers_text)
     sizes = parse_sizes(size_text) if size_text is not None else [None]
     if len(sizes) != 1:
         fail(ValueError(f"--size takes one WxH, got {size_text!r}"))
-    rows = bench_dataset(configs=names, count=count, workers=[int(p) for p in parts],
+    rows = bench_dataset(configs=names, count=count, workers=workers,
                          backend=backend, progress=True, size=sizes[0])
     click.echo(write_table(rows, Path(out), "dataset"))
     from synth.jobs.bench_dataset import profile_dataset
@@ -161,12 +166,9 @@ def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, back
     from synth.jobs.bench_render import write_table
     from synth.jobs.bench_validate import bench_validate
 
-    parts = [w.strip() for w in workers_text.split(",") if w.strip()]
-    if not parts or not all(p.isdigit() and int(p) > 0 for p in parts):
-        fail(ValueError(f"--workers must be positive ints separated by commas, got "
-                         f"{workers_text!r}"))
+    workers = _worker_counts(workers_text)
     rows = bench_validate(matcher=matcher, suite=suite,
                           against=[a.strip() for a in against.split(",") if a.strip()],
-                          workers=[int(p) for p in parts], repeats=repeats, backend=backend,
+                          workers=workers, repeats=repeats, backend=backend,
                           battery=not skip_battery, progress=True)
     click.echo(write_table(rows, Path(out), "validate"))
