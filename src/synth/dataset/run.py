@@ -143,6 +143,19 @@ def _json_bytes(obj: Any) -> bytes:
 
 
 # --------------------------------------------------------------------------- one sample
+def render_draw(config: DatasetConfig, draw: Any, scene: Any, renderer: Any) -> Any:
+    """The exact pair of a drawn sample: ``scene`` (the draw's, possibly changed after drawing)
+    through the config's rig, with the draw's ``im1E`` exposure and ``im1L`` relighting when it
+    asks for them. The one place a dataset sample (and a validate pair) is rendered."""
+    from synth.pair import render_pair
+
+    lighting = None
+    if draw.relight is not None:
+        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
+    return render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
+                       lighting=lighting)
+
+
 def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path, fmt: str, *,
              timings: dict[str, float] | None = None) -> dict:
     """Render sample ``index`` and write all its files into ``dest``; return its record.
@@ -151,8 +164,6 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     stats, photometric, write): wall time under ``stage`` and CPU time of the process (all
     threads, e.g. llvmpipe's) under ``stage + "_cpu"``.
     """
-    from synth.pair import render_pair
-
     clock = [time.perf_counter(), time.process_time()]
 
     def lap(stage: str) -> None:
@@ -172,11 +183,7 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     if "scene.textureless_area" in draw.params:
         scene, textureless = _textureless(scene, config, draw, renderer)
     lap("search")
-    lighting = None
-    if draw.relight is not None:
-        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
-    pair = render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
-                       lighting=lighting)
+    pair = render_draw(config, draw, scene, renderer)
     lap("render")
     out = apply_photometric(pair.left, pair.right, draw.photometric,
                             rng=stream(draw.seed, _PHOTOMETRIC_STREAM))

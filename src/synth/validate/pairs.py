@@ -80,7 +80,7 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
     from synth.dataset.config import config_from_dict
     from synth.dataset.sampling import draw_sample, stream
-    from synth.pair import render_pair
+    from synth.dataset.run import render_draw
     from synth.photometric import apply_photometric
     from synth.texture_control import match_edge_density
 
@@ -91,11 +91,7 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
         scene = scene_hook(scene, config.rig, value)
     if draw.edge_density is not None:
         scene = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer).scene
-    lighting = None
-    if draw.relight is not None:
-        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
-    pair = render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
-                       lighting=lighting)
+    pair = render_draw(config, draw, scene, renderer)
     # an exposure or lighting change between the cameras: the matcher's right view is the
     # variant (Middlebury's im1E / im1L), under the same sensor model
     right = (pair.right_lighting if pair.right_lighting is not None
