@@ -20,7 +20,8 @@ from stereoforge.errors import ParameterError
 from synth.render.backend import GLBackendError
 from synth.render.meshes import Mesh
 
-__all__ = ["GLLimits", "GLScene", "Passes"]
+__all__ = ["GLLimits", "GLScene", "Passes", "VERTEX_STRIDE", "compile_program",
+           "delete_framebuffer", "draw_groups", "framebuffer"]
 
 
 @dataclass(frozen=True)
@@ -74,7 +75,7 @@ class GLLimits:
 #: Samples per pixel of the colour pass (its resolve averages them: area antialiasing).
 _MSAA_SAMPLES = 4
 # Interleaved vertex layout shared by both passes: position (3), texcoord (2), shade (3).
-_STRIDE = 8 * 4
+VERTEX_STRIDE = 8 * 4
 
 _COLOR_VERT = """#version 330 core
 layout(location = 0) in vec3 position;
@@ -117,42 +118,7 @@ void main() {
 }
 """
 
-# Labels (a ground-truth pass, no multisampling): the interpolated vertex normal turned toward
-# the camera, and the instance id, of the surface the depth pass sees (same linear depth test).
-_LABEL_VERT = """#version 330 core
-layout(location = 0) in vec3 position;
-layout(location = 1) in vec4 label;  // vertex normal (x, y, z), instance id
-uniform mat4 PV;
-out float z_cam;
-out vec3 to_surface;
-out vec3 normal;
-flat out float instance;
-uniform vec3 eye;
-void main() {
-    gl_Position = PV * vec4(position, 1.0);
-    z_cam = position.z;
-    to_surface = position - eye;
-    normal = label.xyz;
-    instance = label.w;
-}
-"""
-_LABEL_FRAG = """#version 330 core
-in float z_cam;
-in vec3 to_surface;
-in vec3 normal;
-flat in float instance;
-uniform float inv_far;
-layout(location = 0) out vec4 out_label;
-void main() {
-    vec3 n = normalize(normal);
-    if (dot(n, to_surface) > 0.0) n = -n;  // the side the camera sees
-    out_label = vec4(n, instance);
-    gl_FragDepth = z_cam * inv_far;
-}
-"""
-
-
-def _program(vert: str, frag: str) -> int:
+def compile_program(vert: str, frag: str) -> int:
     from OpenGL import GL
     from OpenGL.GL import shaders
 
@@ -163,7 +129,7 @@ def _program(vert: str, frag: str) -> int:
     )
 
 
-def _framebuffer(attachments: Sequence[tuple[int, int]], width: int, height: int,
+def framebuffer(attachments: Sequence[tuple[int, int]], width: int, height: int,
                  samples: int, what: str) -> tuple[int, list[int]]:
     """A framebuffer with one renderbuffer per ``(attachment point, internal format)``."""
     from OpenGL import GL
@@ -186,7 +152,7 @@ def _framebuffer(attachments: Sequence[tuple[int, int]], width: int, height: int
     return int(fbo), rbs
 
 
-def _delete_framebuffer(fb: tuple[int, list[int]]) -> None:
+def delete_framebuffer(fb: tuple[int, list[int]]) -> None:
     from OpenGL import GL
 
     GL.glDeleteFramebuffers(1, [fb[0]])
@@ -206,7 +172,7 @@ def _set_culling(cull: bool) -> None:
     (GL.glEnable if cull else GL.glDisable)(GL.GL_CULL_FACE)
 
 
-def _draw_groups(up: GLScene) -> None:
+def draw_groups(up: GLScene) -> None:
     """Draw the bound VAO's scene in two calls: closed meshes culled, open ones not; unbind."""
     from OpenGL import GL
 
@@ -252,12 +218,12 @@ class Passes:
 
         self.limits = GLLimits.query()
         self.limits.check_view(width, height)  # before any GL object exists
-        self.color_program = _program(_COLOR_VERT, _COLOR_FRAG)
+        self.color_program = compile_program(_COLOR_VERT, _COLOR_FRAG)
         self.loc_color_pv = GL.glGetUniformLocation(self.color_program, "PV")
         GL.glUseProgram(self.color_program)
         GL.glUniform1i(GL.glGetUniformLocation(self.color_program, "tex"), 0)
         GL.glUseProgram(0)
-        self.gt_program = _program(_GT_VERT, _GT_FRAG)
+        self.gt_program = compile_program(_GT_VERT, _GT_FRAG)
         self.loc_gt_pv = GL.glGetUniformLocation(self.gt_program, "PV")
         self.loc_far = GL.glGetUniformLocation(self.gt_program, "inv_far")
         # untextured meshes sample a white texture: colour = shade exactly (3 x 3: llvmpipe
@@ -265,8 +231,6 @@ class Passes:
         self.white = self._texture(np.full((3, 3, 3), 255, dtype=np.uint8))
         self.lit_program: Any = None  # compiled at the first lit scene (synth.render.lighting)
         self.fbs: list[tuple[int, list[int]]] = []
-        self.label_program = 0  # the labels pass is made on first use: the default passes skip it
-        self.fb_label: tuple[int, list[int]] | None = None
         self.resize(width, height)
 
     def resize(self, width: int, height: int) -> None:
@@ -275,40 +239,27 @@ class Passes:
 
         self.limits.check_view(width, height)
         for fb in self.fbs:
-            _delete_framebuffer(fb)
+            delete_framebuffer(fb)
         self.w, self.h = width, height
         color, depth = GL.GL_COLOR_ATTACHMENT0, GL.GL_DEPTH_ATTACHMENT
-        self.fb_msaa = _framebuffer([(color, GL.GL_RGBA8), (depth, GL.GL_DEPTH_COMPONENT24)],
+        self.fb_msaa = framebuffer([(color, GL.GL_RGBA8), (depth, GL.GL_DEPTH_COMPONENT24)],
                                     width, height, _MSAA_SAMPLES, "multisampled colour")
-        self.fb_resolve = _framebuffer([(color, GL.GL_RGBA8)], width, height, 1, "colour")
-        self.fb_gt = _framebuffer([(color, GL.GL_R32F), (depth, GL.GL_DEPTH_COMPONENT32F)],
+        self.fb_resolve = framebuffer([(color, GL.GL_RGBA8)], width, height, 1, "colour")
+        self.fb_gt = framebuffer([(color, GL.GL_R32F), (depth, GL.GL_DEPTH_COMPONENT32F)],
                                   width, height, 1, "float32 depth")
         self.fbs = [self.fb_msaa, self.fb_resolve, self.fb_gt]
-        if self.fb_label is not None:
-            self.fb_label = self._label_framebuffer()
-
-    def _label_framebuffer(self) -> tuple[int, list[int]]:
-        from OpenGL import GL
-
-        fb = _framebuffer([(GL.GL_COLOR_ATTACHMENT0, GL.GL_RGBA32F),
-                           (GL.GL_DEPTH_ATTACHMENT, GL.GL_DEPTH_COMPONENT32F)],
-                          self.w, self.h, 1, "float32 labels")
-        self.fbs.append(fb)
-        return fb
 
     def delete(self) -> None:
         from OpenGL import GL
 
         for fb in self.fbs:
-            _delete_framebuffer(fb)
+            delete_framebuffer(fb)
         self.fbs = []
         GL.glDeleteTextures(1, [self.white])
         if self.lit_program is not None:
             self.lit_program.delete()
         GL.glDeleteProgram(self.color_program)
         GL.glDeleteProgram(self.gt_program)
-        if self.label_program:
-            GL.glDeleteProgram(self.label_program)
 
     # ------------------------------------------------------------------ uploads
     @staticmethod
@@ -380,7 +331,7 @@ class Passes:
             GL.glBindBuffer(GL.GL_ARRAY_BUFFER, vbo)
             for loc, size, offset in attributes:
                 GL.glEnableVertexAttribArray(loc)
-                GL.glVertexAttribPointer(loc, size, GL.GL_FLOAT, GL.GL_FALSE, _STRIDE,
+                GL.glVertexAttribPointer(loc, size, GL.GL_FLOAT, GL.GL_FALSE, VERTEX_STRIDE,
                                          ctypes.c_void_p(offset))
             GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, ebo)
             if vao == vao_color:
@@ -394,7 +345,7 @@ class Passes:
             from synth.render import lighting as lit
 
             if self.lit_program is None:
-                self.lit_program = lit.LitProgram(_program)
+                self.lit_program = lit.LitProgram(compile_program)
             up.lit = lit.upload_lit(self.lit_program, meshes, vbo, ebo, vao_gt, up.count,
                                     *lighting)
         return up
@@ -417,7 +368,7 @@ class Passes:
 
     # ------------------------------------------------------------------ passes
     @staticmethod
-    def _common_state() -> None:
+    def common_state() -> None:
         from OpenGL import GL
 
         GL.glDisable(GL.GL_BLEND)
@@ -460,7 +411,7 @@ class Passes:
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_msaa[0])
         GL.glViewport(0, 0, self.w, self.h)
         GL.glEnable(GL.GL_MULTISAMPLE)
-        self._common_state()
+        self.common_state()
         GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([*background, 1.0], dtype=np.float32))
         GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
         self._draw_meshes(up, pv, eye, 0)
@@ -484,7 +435,7 @@ class Passes:
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_gt[0])
         GL.glViewport(0, 0, self.w, self.h)
         GL.glDisable(GL.GL_MULTISAMPLE)
-        self._common_state()
+        self.common_state()
         GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([0, 0, 0, 0], dtype=np.float32))
         GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
         self._draw_meshes(up, pv, eye, 1)
@@ -506,67 +457,12 @@ class Passes:
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_gt[0])
         GL.glViewport(0, 0, self.w, self.h)
         GL.glDisable(GL.GL_MULTISAMPLE)
-        self._common_state()
+        self.common_state()
         GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([np.inf, 0, 0, 0], dtype=np.float32))
         GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
         GL.glUseProgram(self.gt_program)
         GL.glUniformMatrix4fv(self.loc_gt_pv, 1, GL.GL_TRUE, pv)
         GL.glUniform1f(self.loc_far, 1.0 / far)
         GL.glBindVertexArray(up.vao_gt)
-        _draw_groups(up)
+        draw_groups(up)
         return self._read_float()
-
-    # ------------------------------------------------------------------ labels (optional GT)
-    def _label_vao(self, up: GLScene) -> int:
-        """Per-vertex normal and instance id in a buffer of their own (the colour and depth
-        passes' vertex layout is untouched), bound with the scene's positions and indices."""
-        from OpenGL import GL
-
-        labels = np.concatenate([np.column_stack([m.normals, np.full(len(m.normals), k, np.float32)])
-                                 for m, k in zip(up.meshes, up.instances)]).astype(np.float32)
-        vao = int(GL.glGenVertexArrays(1))
-        lbo = int(GL.glGenBuffers(1))
-        GL.glBindVertexArray(vao)
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, up.buffers[0])
-        GL.glEnableVertexAttribArray(0)
-        GL.glVertexAttribPointer(0, 3, GL.GL_FLOAT, GL.GL_FALSE, _STRIDE, ctypes.c_void_p(0))
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, lbo)
-        GL.glBufferData(GL.GL_ARRAY_BUFFER, labels.nbytes, labels, GL.GL_STATIC_DRAW)
-        GL.glEnableVertexAttribArray(1)
-        GL.glVertexAttribPointer(1, 4, GL.GL_FLOAT, GL.GL_FALSE, 16, ctypes.c_void_p(0))
-        GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, up.buffers[1])
-        GL.glBindVertexArray(0)
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, 0)
-        up.buffers.append(lbo)
-        up.vao_label = vao
-        return vao
-
-    def labels(self, up: GLScene, pv: np.ndarray, far: float,
-               eye: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """(H, W, 3) float32 unit normals facing the camera at ``eye`` (0 where no surface) and
-        (H, W) uint32 instance ids (0: background) of the surfaces the depth pass sees."""
-        from OpenGL import GL
-
-        if self.fb_label is None:
-            self.label_program = _program(_LABEL_VERT, _LABEL_FRAG)
-            self.fb_label = self._label_framebuffer()
-        vao = up.vao_label or self._label_vao(up)
-        prog = self.label_program
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_label[0])
-        GL.glViewport(0, 0, self.w, self.h)
-        GL.glDisable(GL.GL_MULTISAMPLE)
-        self._common_state()
-        GL.glClearBufferfv(GL.GL_COLOR, 0, np.zeros(4, dtype=np.float32))
-        GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
-        GL.glUseProgram(prog)
-        GL.glUniformMatrix4fv(GL.glGetUniformLocation(prog, "PV"), 1, GL.GL_TRUE, pv)
-        GL.glUniform1f(GL.glGetUniformLocation(prog, "inv_far"), 1.0 / far)
-        GL.glUniform3f(GL.glGetUniformLocation(prog, "eye"), *(float(e) for e in eye))
-        GL.glBindVertexArray(vao)
-        _draw_groups(up)
-        out = np.empty((self.h, self.w, 4), dtype=np.float32)
-        GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
-        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGBA, GL.GL_FLOAT, out.ctypes.data)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        out = out[::-1]  # GL rows run bottom-up
-        return np.ascontiguousarray(out[..., :3]), out[..., 3].astype(np.uint32)

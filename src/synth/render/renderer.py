@@ -37,6 +37,7 @@ from synth.render.backend import (
 )
 from synth.render.context import open_context
 from synth.render.meshes import as_meshes, check_depth_range
+from synth.render.labels import LabelPass
 from synth.render.passes import GLScene, Passes
 
 if TYPE_CHECKING:
@@ -167,6 +168,7 @@ class Renderer:
         self.width, self.height = int(width), int(height)
         self._closed = True
         self._held: dict[int, tuple[Any, GLScene]] = {}
+        self._labels: LabelPass | None = None  # made at the first render_labels
         self.backend = choose_backend(backend, probe=probe)
         try:
             with driver_threads(threads):
@@ -206,6 +208,8 @@ class Renderer:
         for _, up in list(self._held.values()):
             self._passes.release(up)
         self._held.clear()
+        if self._labels is not None:
+            self._labels.delete()
         self._passes.delete()
         self._context.destroy()  # only ours: the EGL display, shared by all, stays initialised
         self._closed = True
@@ -298,7 +302,12 @@ class Renderer:
         with self._view(scene, rig, eye) as up:
             pose = _camera_pose(rig, eye)
             pv = (_projection(rig) @ np.linalg.inv(pose)).astype(np.float32)
-            normals, instance = self._passes.labels(up, pv, rig.far, pose[:3, 3])
+            if self._labels is None:
+                self._labels = LabelPass(self.width, self.height)
+            elif (self._labels.w, self._labels.h) != (self.width, self.height):
+                self._labels.resize(self.width, self.height)
+            Passes.common_state()
+            normals, instance = self._labels.render(up, pv, rig.far, pose[:3, 3])
             return ViewLabels(normals=normals, instance=instance)
 
     def _render(self, up: GLScene, rig: StereoRig, eye: str) -> ViewRender:
