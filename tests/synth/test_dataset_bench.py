@@ -79,6 +79,9 @@ def test_bench_and_profile_rows(tmp_path, renderer):
         assert prof[f"total{suffix}_ms"] == pytest.approx(
             sum(prof[f"{s}{suffix}_ms"] for s in stages))
     assert prof["render_cpu_ms"] > 0 and prof["texture_ms"] > 0 and prof["commit_ms"] > 0
+    # the GL passes are parts of render, each measured (meshes includes the texture synthesis)
+    parts = [prof[f"{name}_ms"] for name in ("meshes", "upload", "colour", "depth")]
+    assert all(p > 0 for p in parts) and sum(parts) <= prof["render_ms"]
     assert profile_dataset(str(path), count=1, size=(48, 30))["size"] == "48x30"
 
 

@@ -231,6 +231,17 @@ def test_same_scene_and_seed_same_bytes(renderer: Renderer) -> None:
         assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
     c = render_pair(scenes.get_preset("flying", seed=8), rig, renderer=renderer)
     assert c.left.tobytes() != a.left.tobytes()
+    timings: dict[str, float] = {}
+    with renderer.pass_timings(timings):  # benchmarks time the passes: the bytes stay
+        d = render_pair(scenes.get_preset("flying", seed=7), rig, renderer=renderer)
+    for name in ("left", "right", "disp_left", "disp_right", "depth_left", "mask_left"):
+        assert getattr(d, name).tobytes() == getattr(a, name).tobytes(), name
+    assert {k for k in timings if not k.endswith("_cpu")} == {"meshes", "upload", "colour",
+                                                              "depth"}
+    assert all(v >= 0 for v in timings.values()) and timings["colour"] > 0
+    before = dict(timings)
+    render_pair(scenes.get_preset("flying", seed=7), rig, renderer=renderer)
+    assert timings == before  # outside the block nothing is timed
 
 
 @pytest.mark.gl

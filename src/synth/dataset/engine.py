@@ -19,9 +19,10 @@ order sort). Engines:
   worker's llvmpipe gets ``cores // workers`` rasterizer threads (``0``, i.e. the calling
   thread, for one core per worker; an ``LP_NUM_THREADS`` in the environment wins) and OpenCV
   and numba as many threads, which avoids oversubscription (numba's OpenMP threads would
-  spin) and does not change the outputs. Worker processes (and Ray actors) also tune glibc's
-  ``malloc`` to reuse freed memory (see :func:`_tune_malloc`): ~15 % less CPU per 640 x 480
-  pair.
+  spin) and does not change the outputs. Ray actors (``num_cpus=1``) are set up as one-core
+  workers the same way (:func:`configure_worker`, :func:`renderer_threads`). Worker processes
+  and Ray actors also tune glibc's ``malloc`` to reuse freed memory (see
+  :func:`_tune_malloc`): ~15 % less CPU per 640 x 480 pair.
 - ``"ray"``: ``workers`` Ray actors (one renderer each), on the cluster at ``address`` or on a
   local Ray started with ``num_cpus=workers`` (and shut down after). Needs ``pip install ray``.
   Each actor runs one task at a time; an actor that dies (its node lost) is replaced and its
@@ -54,8 +55,9 @@ from concurrent.futures import (
 )
 from typing import Any, Protocol
 
-__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_ray_address", "die_with_parent",
-           "run_tasks", "ray_available", "start_worker_server"]
+__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_ray_address", "configure_worker",
+           "die_with_parent", "renderer_threads", "run_tasks", "ray_available",
+           "start_worker_server"]
 
 ENGINES = ("local", "ray")
 
@@ -224,11 +226,10 @@ def start_worker_server(modules: Sequence[str] = ()) -> None:
         forkserver.ensure_running()
 
 
-def _init_worker(task: Task, threads: int | None, main_pid: int) -> None:
-    """Worker set-up that needs no GL: lifetime, thread counts, malloc; the renderer opens on
-    first use. The worker dies with its parent (the fork server, or the main process under
-    ``spawn``), and at once if the main process ``main_pid`` already ended."""
-    die_with_parent(also=main_pid)
+def configure_worker(threads: int | None) -> None:
+    """Set this process up as a worker that shares the cores with others (no GL): OpenCV and
+    numba use ``threads`` threads (``None`` leaves them), glibc's malloc is tuned (see
+    :func:`_tune_malloc`). The renderer's own threads are :func:`renderer_threads`'s."""
     if threads is not None:
         import cv2  # its thread pool too: workers already share the cores
         import numba
@@ -237,6 +238,23 @@ def _init_worker(task: Task, threads: int | None, main_pid: int) -> None:
         # numba's parallel kernels (Canny): one OpenMP thread per worker; more only spin
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     _tune_malloc()
+
+
+def renderer_threads(threads: int | None) -> int | None:
+    """llvmpipe threads for a worker given ``threads`` cores: ``0`` (the calling thread: the
+    least CPU per image) for one, else that many; ``None`` (the driver's default) when no count
+    is given or ``LP_NUM_THREADS`` is set in the environment (the user's choice wins)."""
+    if threads is None or "LP_NUM_THREADS" in os.environ:
+        return None
+    return 0 if threads == 1 else threads
+
+
+def _init_worker(task: Task, threads: int | None, main_pid: int) -> None:
+    """Worker set-up that needs no GL: lifetime, thread counts, malloc; the renderer opens on
+    first use. The worker dies with its parent (the fork server, or the main process under
+    ``spawn``), and at once if the main process ``main_pid`` already ended."""
+    die_with_parent(also=main_pid)
+    configure_worker(threads)
     _WORKER["task"], _WORKER["threads"] = task, threads
 
 
@@ -249,15 +267,11 @@ def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
     if renderer is None:
         from synth.render.renderer import Renderer
 
-        task, threads = _WORKER["task"], _WORKER["threads"]
-        # the parent resolved the backend on this machine: no second probe per worker; one
-        # core per worker rasterizes in the calling thread (least CPU per image)
-        if threads is not None and "LP_NUM_THREADS" not in os.environ:
-            threads = 0 if threads == 1 else threads
-        else:
-            threads = None
-        renderer = _WORKER["renderer"] = Renderer(task.width, task.height, backend=backend,
-                                                  probe=False, threads=threads)
+        task = _WORKER["task"]
+        # the parent resolved the backend on this machine: no second probe per worker
+        renderer = _WORKER["renderer"] = Renderer(
+            task.width, task.height, backend=backend, probe=False,
+            threads=renderer_threads(_WORKER["threads"]))
     return index, _WORKER["task"](index, renderer)
 
 
@@ -298,9 +312,10 @@ class _RayWorker:
     def __init__(self, task: Task) -> None:
         from synth.render.renderer import Renderer
 
-        _tune_malloc()
+        configure_worker(1)  # num_cpus=1: one core, as a local worker of a full machine
         self.task = task
-        self.renderer = Renderer(task.width, task.height, backend=task.backend)
+        self.renderer = Renderer(task.width, task.height, backend=task.backend,
+                                 threads=renderer_threads(1))
 
     def ready(self) -> None:
         """Returns once ``__init__`` ran (the renderer is open)."""

@@ -179,40 +179,72 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
                     size: tuple[int, int] | None = None) -> dict:
     """Milliseconds per pair in each stage of one worker (after one warm-up sample).
 
+    Measured in a fresh child process set up like one worker of a run that gives each worker
+    one core (:func:`synth.dataset.engine.configure_worker`: one OpenCV and numba thread,
+    tuned malloc; llvmpipe rasterizing in the calling thread), so the CPU figures are those of
+    a 2-worker run on 2 cores.
+
     Stages: ``draw`` (parameters and scene), ``search`` (edge density loop), ``render``
-    (``render_pair``: texture synthesis, upload, colour and depth passes, masks), ``texture``
-    (texture synthesis alone, included in ``render``), ``photometric``, ``stats`` (Canny and
-    GT statistics), ``write`` (PNG/PFM encoding, scene.json, sample.json, into the worker's
-    temporary folder: mostly encoding). Not in ``total``: ``commit``, what the driver spends
-    per pair on the Ray engine or a URL output (the completion record, reading the files back
-    as the worker returns them, and :func:`~synth.dataset.storage.commit_sample` into a local
-    folder; an object store adds its upload time). ``size``: render at ``(W, H)`` instead.
+    (``render_pair``), ``photometric``, ``stats`` (Canny and GT statistics), ``write``
+    (PNG/PFM encoding, scene.json, sample.json, into the worker's temporary folder: mostly
+    encoding). Inside ``render`` (see :meth:`synth.render.Renderer.pass_timings`): ``meshes``
+    (scene to vertex arrays, texture synthesis included), ``upload`` (GL buffers, textures and
+    mipmaps), ``colour`` (the 4x multisampled colour passes of both views, their resolve and
+    read-back), ``depth`` (the float depth passes); and ``texture``, the texture synthesis alone
+    (measured apart). Not in ``total``: ``commit``, what the driver spends per pair on the Ray
+    engine or a URL output (the completion record, reading the files back as the worker returns
+    them, and :func:`~synth.dataset.storage.commit_sample` into a local folder; an object store
+    adds its upload time). ``size``: render at ``(W, H)`` instead.
 
     Returns
     -------
     dict
         ``config``, ``size``, ``pairs``, one ``<stage>_ms`` entry per stage (wall time) and
-        ``total_ms``, and the same in CPU time of the process, all threads (``<stage>_cpu_ms``,
-        ``total_cpu_ms``: robust to other load on the machine; llvmpipe renders with a thread
-        per core, so ``render_cpu_ms`` can exceed ``render_ms``).
+        ``total_ms``, and the same in CPU time of the worker, all threads (``<stage>_cpu_ms``,
+        ``total_cpu_ms``).
     """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_profiler_setup, initargs=(os.getpid(),)) as pool:
+        return pool.submit(_profile, config, count, backend, size).result()
+
+
+#: Render sub-stages (:meth:`synth.render.Renderer.pass_timings`) in the profile's columns.
+_PASSES = ("meshes", "upload", "colour", "depth")
+
+
+def _profiler_setup(parent: int) -> None:
+    from synth.dataset.engine import configure_worker, die_with_parent
+
+    die_with_parent(also=parent)
+    configure_worker(1)
+
+
+def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None) -> dict:
     from scenes import build_meshes
     from synth.dataset.config import load_config
+    from synth.dataset.engine import renderer_threads
     from synth.dataset.run import commit_returned, produce_sample
-    from synth.render.renderer import Renderer
     from synth.dataset.sampling import draw_sample
+    from synth.render.renderer import Renderer
 
     cfg = load_config(config)
     if size is not None:
         cfg = resized(cfg, *size)
     timings: dict[str, float] = {}
+    passes: dict[str, float] = {}
     texture = texture_cpu = commit = 0.0
-    with Renderer(cfg.rig.width, cfg.rig.height, backend=backend) as renderer, \
+    with Renderer(cfg.rig.width, cfg.rig.height, backend=backend,
+                  threads=renderer_threads(1)) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
         produce_sample(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
         (Path(tmp) / "out").mkdir()
         for i in range(count):
-            produce_sample(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury", timings=timings)
+            with renderer.pass_timings(passes):
+                produce_sample(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury",
+                               timings=timings)
             t0 = time.perf_counter()
             commit_returned(Path(tmp) / f"{i:06d}", Path(tmp) / "out", i, "middlebury")
             commit += time.perf_counter() - t0
@@ -227,6 +259,8 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     for suffix, extra in (("", texture), ("_cpu", texture_cpu)):
         for stage in stages:
             row[f"{stage}{suffix}_ms"] = 1e3 * timings.get(stage + suffix, 0.0) / count
+        for name in _PASSES:
+            row[f"{name}{suffix}_ms"] = 1e3 * passes.get(name + suffix, 0.0) / count
         row[f"texture{suffix}_ms"] = 1e3 * extra / count
         row[f"total{suffix}_ms"] = sum(row[f"{stage}{suffix}_ms"] for stage in stages)
     row["commit_ms"] = 1e3 * commit / count

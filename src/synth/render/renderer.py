@@ -16,6 +16,7 @@ preparation in :mod:`synth.render.meshes`.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -169,6 +170,7 @@ class Renderer:
         self._closed = True
         self._held: dict[int, tuple[Any, GLScene]] = {}
         self._labels: LabelPass | None = None  # made at the first render_labels
+        self._timings: dict[str, float] | None = None  # set inside a pass_timings block
         self.backend = choose_backend(backend, probe=probe)
         try:
             with driver_threads(threads):
@@ -218,6 +220,51 @@ class Renderer:
         if self._closed:
             raise RuntimeError("this Renderer is closed; open a new one (use it as a `with` block)")
 
+    # -------------------------------------------------------------- profiling
+    @contextmanager
+    def pass_timings(self, timings: dict[str, float]) -> Iterator[dict[str, float]]:
+        """Inside the block, add each pass's seconds to ``timings`` (for benchmarks).
+
+        Keys: ``meshes`` (scene to vertex arrays and texture synthesis, no GL), ``upload``
+        (buffers, textures and their mipmaps), ``colour`` (the multisampled colour pass, its
+        resolve and read-back), ``depth`` (the float depth pass and read-back), ``highlight``
+        (specular scenes); wall time under the key, CPU time of the process (all threads)
+        under ``key + "_cpu"``. Each timed pass waits for the GL to finish (``glFinish``)
+        before and after it, so work the driver would defer is charged to its own pass; the
+        images do not change. Yields ``timings``.
+
+        Examples
+        --------
+        >>> from synth.rig import StereoRig
+        >>> from scenes import get_preset
+        >>> t = {}
+        >>> with Renderer(32, 24) as r, r.pass_timings(t):
+        ...     _ = r.render_view(get_preset("boxes"), StereoRig.default(32, 24), eye="left")
+        >>> sorted(k for k in t if not k.endswith("_cpu"))
+        ['colour', 'depth', 'meshes', 'upload']
+        """
+        before, self._timings = self._timings, timings
+        try:
+            yield timings
+        finally:
+            self._timings = before
+
+    @contextmanager
+    def _timed(self, name: str, *, gl: bool = True) -> Iterator[None]:
+        timings = self._timings
+        if timings is None:
+            yield
+            return
+        from OpenGL import GL
+
+        finish = GL.glFinish if gl else (lambda: None)
+        finish()
+        t0, c0 = time.perf_counter(), time.process_time()
+        yield
+        finish()
+        timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
+        timings[f"{name}_cpu"] = timings.get(f"{name}_cpu", 0.0) + time.process_time() - c0
+
     # -------------------------------------------------------------- uploads
     @contextmanager
     def uploaded(self, scene: Any) -> Iterator[dict]:
@@ -232,7 +279,8 @@ class Renderer:
         if key in self._held:
             yield dict(self._held[key][1].meta)
             return
-        meshes, background, meta = as_meshes(scene)
+        with self._timed("meshes", gl=False):
+            meshes, background, meta = as_meshes(scene)
         lighting = None
         if getattr(scene, "is_lit", None) is not None and scene.is_lit():
             from synth.render.lighting import scene_lights
@@ -240,7 +288,9 @@ class Renderer:
             lighting = scene_lights(scene)
             meta = {**meta, "specular": scene.has_specular()}
         self._context.make_current()
-        up = self._passes.upload(meshes, {**meta, "background": background}, lighting=lighting)
+        with self._timed("upload"):
+            up = self._passes.upload(meshes, {**meta, "background": background},
+                                     lighting=lighting)
         self._held[key] = (scene, up)  # keeps `scene` alive so its id is not reused
         try:
             yield {k: v for k, v in up.meta.items() if k != "background"}
@@ -314,9 +364,12 @@ class Renderer:
         pose = _camera_pose(rig, eye)
         pv = (_projection(rig) @ np.linalg.inv(pose)).astype(np.float32)
         position = pose[:3, 3]
-        color = self._passes.color(up, pv, up.meta["background"], eye=position)
-        depth = self._passes.depth(up, pv, rig.far)
+        with self._timed("colour"):
+            color = self._passes.color(up, pv, up.meta["background"], eye=position)
+        with self._timed("depth"):
+            depth = self._passes.depth(up, pv, rig.far)
         highlight = None
         if up.meta.get("specular"):
-            highlight = self._passes.highlight(up, pv, position)
+            with self._timed("highlight"):
+                highlight = self._passes.highlight(up, pv, position)
         return ViewRender(color=color, depth=depth, highlight=highlight)
