@@ -147,15 +147,15 @@ MUTANTS += (
     Mutant(
         "photometric noise seeded by the dataset",
         "src/synth/dataset/run.py",
-        (("rng=stream(draw.seed, _PHOTOMETRIC_STREAM)",
-          "rng=stream(config.seed, _PHOTOMETRIC_STREAM)"),),
+        (("rng=stream(draw.seed, STREAM_PHOTOMETRIC)",
+          "rng=stream(config.seed, STREAM_PHOTOMETRIC)"),),
         "every sample gets the same noise field (dataset seed instead of the sample's)",
         _DATASET,
     ),
     Mutant(
         "photometric noise shares the preset's stream",
         "src/synth/dataset/run.py",
-        (("_PHOTOMETRIC_STREAM = 3", "_PHOTOMETRIC_STREAM = 1"),),
+        (("rng=stream(draw.seed, STREAM_PHOTOMETRIC)", "rng=stream(draw.seed, 1)"),),
         "the noise is drawn from the stream that seeds the base preset (correlated draws)",
         _DATASET,
     ),

@@ -67,6 +67,8 @@ from synth.progress import progress as progress_bar
 from synth.dataset.sampling import (
     STREAM_EXPOSURE_NOISE,
     STREAM_LIGHTING_NOISE,
+    STREAM_PHOTOMETRIC,
+    STREAM_TEXTURELESS,
     draw_sample,
     effective_frequency_px,
     sample_seed,
@@ -81,8 +83,6 @@ __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_s
 #: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
 _FORMAT_VERSION = 2
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
-_PHOTOMETRIC_STREAM = 3
-_TEXTURELESS_STREAM = 5  # the order in which objects are made textureless
 _HEADER_KEYS = {"config": dict, "format": str}
 
 
@@ -131,7 +131,7 @@ def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
     rig = config.rig
     coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)
     return match_textureless(scene, float(draw.params["scene.textureless_area"]), coverage,
-                             rig.width * rig.height, stream(draw.seed, _TEXTURELESS_STREAM))
+                             rig.width * rig.height, stream(draw.seed, STREAM_TEXTURELESS))
 
 
 def _r(value: float | None) -> float | None:
@@ -186,7 +186,7 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     pair = render_draw(config, draw, scene, renderer)
     lap("render")
     out = apply_photometric(pair.left, pair.right, draw.photometric,
-                            rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
+                            rng=stream(draw.seed, STREAM_PHOTOMETRIC))
     variants = {}  # the right-view variants under the same sensor model, their own noise
     for name, noise in (("right_exposure", STREAM_EXPOSURE_NOISE),
                         ("right_lighting", STREAM_LIGHTING_NOISE)):

@@ -35,10 +35,18 @@ from synth.dataset.config import PER_OBJECT_KEYS, DatasetConfig
 from synth.photometric import PhotometricParams
 from synth.texture_control import retexture
 
-__all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px"]
+__all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px",
+           "STREAM_PHOTOMETRIC", "STREAM_EXPOSURE_NOISE", "STREAM_LIGHTING_NOISE",
+           "STREAM_TEXTURELESS"]
 
-(_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, _STREAM_PHOTOMETRIC, _STREAM_LIGHT,
+# The random streams of one sample (:func:`stream`), numbered once here for every user
+# (drawing, the photometric noise of the dataset run and of validate's pairs).
+(_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, STREAM_PHOTOMETRIC, _STREAM_LIGHT,
  STREAM_EXPOSURE_NOISE, STREAM_LIGHTING_NOISE, _STREAM_TEXTURES) = range(8)
+#: The order in which objects are made textureless (``textureless_area``). It shares the
+#: exposure variant's stream (a permutation, and independent noise bits for ``im1E``, read
+#: from the same generator state): kept so that existing datasets keep their bytes.
+STREAM_TEXTURELESS = STREAM_EXPOSURE_NOISE
 #: [scene] keys drawn per object or per lamp from the light stream, not once per sample.
 _PER_ITEM = ("specular", "shininess", "specular_model", "roughness", "lamp_intensity",
              "lamp_shadows")

@@ -28,7 +28,6 @@ __all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder"
            "read_pair_folder", "max_disparity_for"]
 
 RECORD = "files.json"
-_PHOTOMETRIC_STREAM = 3  # synth.dataset.sampling's stream of the photometric noise
 _VERSION = 1
 
 
@@ -79,7 +78,7 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     applied to its drawn scene: ``(pair, images, scene, draw)``, ``pair`` the exact render,
     ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
     from synth.dataset.config import config_from_dict
-    from synth.dataset.sampling import draw_sample, stream
+    from synth.dataset.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
     from synth.dataset.run import render_draw
     from synth.photometric import apply_photometric
     from synth.texture_control import match_edge_density
@@ -97,7 +96,7 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     right = (pair.right_lighting if pair.right_lighting is not None
              else pair.right_exposure if pair.right_exposure is not None else pair.right)
     images = apply_photometric(pair.left, right, draw.photometric,
-                               rng=stream(draw.seed, _PHOTOMETRIC_STREAM))
+                               rng=stream(draw.seed, STREAM_PHOTOMETRIC))
     return pair, images, scene, draw
 
 
