@@ -87,6 +87,37 @@ def test_bench_and_profile_rows(tmp_path, renderer):
 
 @pytest.mark.gl
 @pytest.mark.slow
+@pytest.mark.ray
+def test_bench_on_ray_commits_every_returned_sample_in_the_driver(tmp_path, renderer,
+                                                                  require_or_skip,
+                                                                  monkeypatch):
+    from synth.dataset import run
+    from synth.dataset.engine import ray_available
+
+    if not ray_available():
+        require_or_skip("ray is not installed (optional extra: pip install ray)",
+                        env="STEREOFORGE_REQUIRE_RAY")
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    committed = []
+    original = run.commit_files
+
+    def commit(out, index, files, fmt):
+        committed.append((index, sorted(files)))
+        original(out, index, files, fmt)
+
+    monkeypatch.setattr(run, "commit_files", commit)
+    (row,) = bench_dataset(configs=(str(path),), count=3, workers=(2,), engine="ray")
+    assert (row["engine"], row["workers"], row["pairs"], row["cold"]) == ("ray", 2, 3, None)
+    assert sorted(i for i, _ in committed) == [0, 1, 2]  # the actors wrote nothing themselves
+    assert all("records/%06d.json" % i in names for i, names in committed)
+    assert row["driver_cpu_ms_per_pair"] > 0 and row["steady_cpu_ms_per_pair"] > 0
+    with pytest.raises(ValueError, match="engine must be one of local, ray"):
+        bench_dataset(configs=(str(path),), count=1, engine="dask")
+
+
+@pytest.mark.gl
+@pytest.mark.slow
 def test_bench_marks_only_the_first_multi_worker_run_cold(tmp_path, renderer):
     path = tmp_path / "tiny.toml"
     path.write_text(TINY)

@@ -77,7 +77,7 @@ from synth.dataset.sampling import (
 from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density
 
 __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_sample", "run_dataset",
-           "render_from_manifest", "read_manifest"]
+           "render_from_manifest", "read_manifest", "commit_files", "commit_returned"]
 
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
 #: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
@@ -289,14 +289,20 @@ def _returned_files(tmp: Path, index: int, fmt: str) -> dict[str, bytes]:
     return files
 
 
+def commit_files(out: Path | FsPath, index: int, files: dict[str, bytes], fmt: str) -> None:
+    """Commit sample ``index``'s returned ``files`` (path in the dataset -> bytes, its
+    completion record among them, as :class:`SampleTask` returns them) into ``out``: what the
+    driver does for each sample of the Ray engine or a URL output."""
+    commit_sample(out, index, files, folder=sample_dir(Path(), fmt, index).as_posix(),
+                  record=_record_name(index),
+                  commit_local=lambda t, root: _commit(t, root, index, fmt))
+
+
 def commit_returned(tmp: Path, out: Path | FsPath, index: int, fmt: str) -> None:
     """What a sample costs the driver on the Ray engine or a URL output: the files of ``tmp``
     (a folder :func:`produce_sample` wrote) returned as bytes and committed into ``out``
     (``stereoforge bench dataset`` times it)."""
-    files = _returned_files(tmp, index, fmt)
-    commit_sample(out, index, files, folder=sample_dir(Path(), fmt, index).as_posix(),
-                  record=_record_name(index),
-                  commit_local=lambda t, root: _commit(t, root, index, fmt))
+    commit_files(out, index, _returned_files(tmp, index, fmt), fmt)
 
 
 class SampleTask:
@@ -546,10 +552,7 @@ def run_dataset(
             for index, result in run_tasks(task, todo, workers=workers, engine=engine,
                                            address=address):
                 if returns_bytes:
-                    commit_sample(out, index, result[1],
-                                  folder=sample_dir(Path(), fmt, index).as_posix(),
-                                  record=_record_name(index),
-                                  commit_local=lambda t, root, i=index: _commit(t, root, i, fmt))
+                    commit_files(out, index, result[1], fmt)
                 bar.update()
                 if packer:
                     packer.advance(count)

@@ -36,8 +36,9 @@ class _Stamped:
         self.preload = (type(task).__module__, *getattr(task, "preload", ()))
 
     def __call__(self, index: int, renderer: Any) -> dict:
-        self.task(index, renderer)
-        return {"pid": os.getpid(), "cpu": time.process_time()}
+        result = self.task(index, renderer)
+        files = result[1] if isinstance(result, tuple) else None  # returned for the driver
+        return {"pid": os.getpid(), "cpu": time.process_time(), "files": files}
 
 
 def _steady_cpu_per_pair(stamps: Sequence[dict]) -> float:
@@ -78,6 +79,7 @@ def bench_dataset(
     backend: str = "auto",
     progress: bool = False,
     size: tuple[int, int] | None = None,
+    engine: str = "local",
 ) -> list[dict]:
     """Pairs per second of whole dataset runs, per configuration and worker count.
 
@@ -94,6 +96,11 @@ def bench_dataset(
     size : (width, height), optional
         Render at this size instead of the configuration's (``fx`` scales with the width, so the
         horizontal field of view and the scenes' framing stay those of the configuration).
+    engine : {"local", "ray"}
+        ``"ray"``: a local Ray of ``workers`` CPUs on the loopback, started and shut down per
+        run (its start-up is in ``seconds``, not in the steady rate); the actors return each
+        sample's bytes and this process commits them, as :func:`synth.run_dataset` does on a
+        cluster, so ``driver_cpu_ms_per_pair`` shows what one driver spends per pair.
 
     Returns
     -------
@@ -108,8 +115,10 @@ def bench_dataset(
         start-up, whatever else loads the machine; ``1000 * cores / steady_cpu_ms_per_pair``
         bounds the steady rate of an idle machine), ``efficiency`` (steady rate over
         ``workers / workers[0]`` times the first one's), ``minutes_for_35454`` (the steady rate
-        extrapolated to FlyingThings3D's 35,454 training pairs) and ``cold`` (True for the first
-        multi-worker run of this call; see below).
+        extrapolated to FlyingThings3D's 35,454 training pairs), ``driver_cpu_ms_per_pair``
+        (CPU time of this process per pair at steady state: receiving and committing returned
+        samples on Ray, next to nothing on the local engine), ``engine`` and ``cold`` (True for
+        the first multi-worker run of this call; see below).
 
     The first multi-worker run of a process also starts the engine's fork server (imports and
     numba set-up, ~1.5 s, see :mod:`synth.dataset.engine`) and probes the GL backend; later runs (the
@@ -118,8 +127,11 @@ def bench_dataset(
     multi-worker job before).
     """
     from synth.dataset.config import load_config
-    from synth.dataset.run import SampleTask
-    from synth.dataset.engine import run_tasks
+    from synth.dataset.engine import ENGINES, run_tasks
+    from synth.dataset.run import SampleTask, commit_files
+
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
 
     loaded = [load_config(name) for name in configs]  # every error before the first run
     if size is not None:
@@ -130,29 +142,39 @@ def bench_dataset(
         base_rate = base_steady = None
         for w in workers:
             with tempfile.TemporaryDirectory() as tmp:
-                task = _Stamped(SampleTask(cfg, Path(tmp), "middlebury", backend))
+                out = Path(tmp)
+                task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, "middlebury",
+                                           backend))
                 cpu0 = _cpu_seconds()
                 t0 = time.perf_counter()
-                done, stamps = [], []
-                for _, stamp in run_tasks(task, range(count), workers=w):
+                done, stamps, driver = [], [], []
+                for index, stamp in run_tasks(task, range(count), workers=w, engine=engine):
+                    files = stamp.pop("files")
+                    if files is not None:  # Ray: the driver writes what the actor returned
+                        commit_files(out, index, files, "middlebury")
                     done.append(time.perf_counter())
+                    driver.append(time.process_time())
                     stamps.append(stamp)
+                    if len(done) == count:  # before the engine stops (Ray's processes exit
+                        cpu = _cpu_seconds() - cpu0  # unreaped: their CPU time is lost then)
                 seconds = time.perf_counter() - t0
-                cpu = _cpu_seconds() - cpu0
             rate = count / seconds
             steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
+            driver_ms = (1e3 * (driver[-1] - driver[w - 1]) / (count - w) if count > w
+                         else float("nan"))
             base_rate = rate if base_rate is None else base_rate
             base_steady = steady if base_steady is None else base_steady
             scale = w / workers[0]
             rows.append({"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
-                         "workers": w, "pairs": count, "seconds": seconds,
+                         "engine": engine, "workers": w, "pairs": count, "seconds": seconds,
                          "pairs_per_s": rate, "steady_pairs_per_s": steady,
                          "startup_s": seconds - count / steady,
                          "pairs_per_cpu_s": count / cpu,
                          "steady_cpu_ms_per_pair": 1e3 * _steady_cpu_per_pair(stamps),
+                         "driver_cpu_ms_per_pair": driver_ms,
                          "efficiency": steady / base_steady / scale,
                          "minutes_for_35454": FLYINGTHINGS3D_PAIRS / steady / 60.0,
-                         "cold": cold if w > 1 else None})
+                         "cold": cold if w > 1 and engine == "local" else None})
             cold = cold and w == 1
     return rows
 
