@@ -88,6 +88,36 @@ def test_memory_url_has_the_folder_bytes_resumes_and_verifies(tmp_path, renderer
     fs.rm("/store-run", recursive=True)
 
 
+@pytest.mark.gl
+def test_a_sample_of_a_url_dataset_is_rendered_again_from_its_manifest(tmp_path, renderer):
+    """render --from-manifest reads dataset.json and the sample's record from the URL itself."""
+    from click.testing import CliRunner
+
+    import synth
+    from synth.cli import main
+    from synth.dataset.config import loads_config
+
+    synth.run_dataset(loads_config(_CONFIG), "memory://store-again", progress=False)
+    try:
+        result = CliRunner().invoke(main, ["render", "--from-manifest", "memory://store-again",
+                                           "2", "--out", str(tmp_path / "again")])
+        assert result.exit_code == 0, result.output
+        stored = {k.split("/000002/", 1)[1]: v for k, v in _memory("store-again").items()
+                  if "/000002/" in k}
+        again = _folder(tmp_path / "again")
+        assert len(stored) > 5 and again == stored
+        missing = CliRunner().invoke(main, ["render", "--from-manifest", "memory://no-such",
+                                            "0", "--out", str(tmp_path / "none")])
+        errors = [line for line in missing.output.splitlines() if line.startswith("Error:")]
+        assert missing.exit_code != 0 and len(errors) == 1, missing.output
+        assert "memory://no-such has no dataset.json" in errors[0]
+        assert not (tmp_path / "none").exists()
+    finally:
+        import fsspec
+
+        fsspec.filesystem("memory").rm("/store-again", recursive=True)
+
+
 _PREIMPORTED = """
 import ray  # before the engine, without RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER: too late to keep 127.0.0.1
 from stereoforge.errors import BackendError

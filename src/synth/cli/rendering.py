@@ -40,8 +40,9 @@ def presets() -> None:
 @backend_option
 @overwrite_option
 @click.option("--from-manifest", "from_manifest", nargs=2, default=None,
-              type=(click.Path(file_okay=False, path_type=Path), int), metavar="DIR INDEX",
-              help="Re-render sample INDEX of the dataset in DIR alone (same bytes), instead of SCENE.")
+              type=(str, int), metavar="DIR INDEX",
+              help="Re-render sample INDEX of the dataset in DIR (a folder or an fsspec URL, "
+                   "e.g. s3://bucket/prefix) alone (same bytes), instead of SCENE.")
 @click.option("--exposure-variant", "exposure", default=None, type=float, metavar="FACTOR",
               help="Write im1E.png: the right view with its linear radiance times FACTOR "
                    "(Middlebury layout).")

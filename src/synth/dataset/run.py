@@ -578,8 +578,9 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
                          backend: str = "auto") -> list[Path]:
     """Re-render sample ``index`` of a dataset alone, into ``out``, with the dataset's bytes.
 
-    The configuration comes from ``dataset_dir/dataset.json``; the sample need not be complete
-    (this is how a failed sample is reproduced). ``out`` receives the sample's files as in the
+    The configuration comes from ``dataset_dir/dataset.json``; ``dataset_dir`` is a folder or
+    an fsspec URL (``s3://bucket/prefix``, as :func:`run_dataset` takes), read in place. The
+    sample need not be complete (this is how a failed sample is reproduced). ``out`` receives the sample's files as in the
     dataset (Middlebury: ``im0.png ...``; KITTI: ``training/image_2/NNNNNN_10.png ...``) plus
     ``scene.json`` and ``sample.json``. A non-empty ``out`` is refused unless ``overwrite``.
     The files are written into a temporary folder beside ``out`` and renamed into place when all
@@ -610,7 +611,7 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     """
     from synth.render.renderer import Renderer
 
-    root = Path(dataset_dir)
+    root = dataset_path(dataset_dir)  # a folder, or a URL (its filesystem package checked)
     path = root / "dataset.json"
     if not path.is_file():
         raise DatasetError(f"{root} has no dataset.json; pass a directory made by run_dataset")
