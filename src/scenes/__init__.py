@@ -7,12 +7,8 @@ Pure numpy + trimesh (no OpenGL). A scene is data (:class:`SceneSpec`) in the le
 from scenes.materials import LAMP_KINDS, LampSpec, MaterialSpec
 from scenes.presets import PRESETS, Preset, get_preset, list_presets
 from scenes.primitives import build_mesh, build_meshes, plane_equation
-from scenes.spec import (
-    LightSpec,
-    ObjectSpec,
-    Pose,
-    SceneSpec,
-    TextureSpec,
+from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
+from scenes.serialize import (
     dump_scene,
     dumps_json,
     dumps_toml,

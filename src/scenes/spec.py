@@ -2,7 +2,7 @@
 
 A scene is data. Its world frame is the left camera's frame in OpenCV orientation (``x`` right,
 ``y`` down, ``z`` forward = depth, metres; see ``docs/conventions.md``). Every number survives
-``load(dump(spec)) == spec`` exactly: floats are written with ``repr`` (shortest round-trip form)
+``load(dump(spec)) == spec`` exactly (:mod:`scenes.serialize`): floats are written with ``repr`` (shortest round-trip form)
 and sequences come back as tuples.
 
 On disk a scene is a table with the keys ``version`` (currently 1), ``name``, ``description``,
@@ -11,31 +11,26 @@ On disk a scene is a table with the keys ``version`` (currently 1), ``name``, ``
 tables; see :mod:`scenes.materials`). Missing keys take the dataclass defaults; unknown keys are an
 error.
 
-One module on purpose: every dataclass of a scene sits beside the code that turns it into TOML/JSON
-and back, so that a field added to one cannot be forgotten by the other (the round trip is exact).
+The conversion to and from plain dicts, TOML, JSON and files is :mod:`scenes.serialize`: it
+reads the fields of these dataclasses (``dataclasses.fields``), so a new field is written and
+read without a change there; a new *nested* dataclass field needs its line in
+:func:`scenes.serialize.scene_from_dict` (the round-trip property tests catch a missing one).
 """
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
-from dataclasses import MISSING, dataclass, field, fields
-from pathlib import Path
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import tomli_w
 
 from scenes.materials import MAX_LAMPS, LampSpec, MaterialSpec
-from stereoforge.errors import SceneError, StereoforgeError
 from stereoforge.validation import (
     check_choice,
     check_int,
-    check_keys,
     check_real,
     check_sequence,
-    check_text,
     check_type,
     fail,
 )
@@ -50,14 +45,6 @@ __all__ = [
     "ObjectSpec",
     "LightSpec",
     "SceneSpec",
-    "scene_to_dict",
-    "scene_from_dict",
-    "dumps_json",
-    "loads_json",
-    "dumps_toml",
-    "loads_toml",
-    "dump_scene",
-    "load_scene",
 ]
 
 #: Texture kinds understood by :func:`scenes.textures.make_texture` (``"image"``: a photograph,
@@ -98,7 +85,6 @@ SKIMAGE_PHOTOS: tuple[str, ...] = (
     "text")
 _SKIMAGE_PREFIX = "skimage:"
 
-_FORMAT_VERSION = 1
 _MAX_SEED = 2**63  # TOML integers are signed 64-bit
 _MAX_SEGMENTS = 4096
 
@@ -412,6 +398,7 @@ class SceneSpec:
     --------
     >>> plane = ObjectSpec("plane", Pose(translation=(0.0, 0.0, 2.0)), (3.0, 2.0), TextureSpec())
     >>> spec = SceneSpec("demo", (plane,))
+    >>> from scenes.serialize import dumps_json, loads_json
     >>> loads_json(dumps_json(spec)) == spec
     True
     """
@@ -449,190 +436,3 @@ class SceneSpec:
     def has_specular(self) -> bool:
         """True when an object has a specular term (the pair gets highlight masks)."""
         return any(not o.material.is_matte() for o in self.objects)
-
-
-# --------------------------------------------------------------------------- dict conversion
-#: Fields written only when they differ from their default, so that the scene files (and the
-#: ``scene.json`` of every pair) of scenes that do not use them keep their bytes.
-_WRITTEN_IF_SET = {(ObjectSpec, "material"): MaterialSpec(), (SceneSpec, "lamps"): ()}
-
-
-def _to_plain(value: Any) -> Any:
-    if isinstance(value, tuple):
-        return [_to_plain(v) for v in value]
-    if hasattr(value, "__dataclass_fields__"):
-        return {f.name: _to_plain(getattr(value, f.name)) for f in fields(value)
-                if not ((type(value), f.name) in _WRITTEN_IF_SET
-                        and getattr(value, f.name) == _WRITTEN_IF_SET[type(value), f.name])
-                and not (f.metadata.get("omit_default") and getattr(value, f.name) == f.default)}
-    return value
-
-
-def scene_to_dict(spec: SceneSpec) -> dict[str, Any]:
-    """Plain nested dict (lists, no tuples) of a scene, ready for TOML or JSON.
-
-    Examples
-    --------
-    >>> plane = ObjectSpec("plane", Pose(), (1.0, 1.0), TextureSpec())
-    >>> sorted(scene_to_dict(SceneSpec("s", (plane,))))[:3]
-    ['background', 'description', 'light']
-    """
-    check_type(spec, "spec", SceneSpec)
-    out = {"version": _FORMAT_VERSION}
-    out.update(_to_plain(spec))
-    return out
-
-
-def _take(data: Any, cls: type, where: str) -> dict[str, Any]:
-    """Check ``data`` is a mapping whose keys are fields of ``cls``; return a copy."""
-    check_type(data, where, dict, expected="a table/object")
-    check_keys(data, where, [f.name for f in fields(cls)], error=SceneError)
-    return dict(data)
-
-
-def _build(cls: type, kwargs: dict[str, Any], where: str) -> Any:
-    required = [f.name for f in fields(cls)
-                if f.default is MISSING and f.default_factory is MISSING]
-    missing = [name for name in required if name not in kwargs]
-    if missing:
-        raise SceneError(f"{where} is missing the required key(s) {missing}; "
-                         f"required keys: {required}")
-    try:
-        return cls(**kwargs)
-    except StereoforgeError as exc:  # the same class, told where in the scene
-        raise type(exc)(f"{where}: {exc}") from None
-
-
-def scene_from_dict(data: dict[str, Any]) -> SceneSpec:
-    """Build a :class:`SceneSpec` from the nested dict written by :func:`scene_to_dict`.
-
-    Raises
-    ------
-    SceneError
-        On an unknown key (naming it, where it is and the valid keys), a missing required key or
-        an unsupported format version (a ``ValueError``).
-    stereoforge.errors.ParameterError
-        On an unknown kind or an out-of-range value (a ``ValueError``).
-    stereoforge.errors.ParameterTypeError
-        On a value of the wrong type (a ``TypeError``).
-
-    Examples
-    --------
-    >>> scene_from_dict({"name": "s", "objects": [{"kind": "sphere", "size": [1.0],
-    ...                  "pose": {"translation": [0.0, 0.0, 5.0]}}]}).objects[0].size
-    (1.0,)
-    """
-    data = dict(data) if isinstance(data, dict) else data
-    if isinstance(data, dict):
-        version = data.pop("version", _FORMAT_VERSION)
-        if version != _FORMAT_VERSION:
-            raise SceneError(f"unsupported scene format version {version!r}; "
-                             f"this stereoforge reads version {_FORMAT_VERSION}")
-    top = _take(data, SceneSpec, "scene")
-    raw_objects = check_type(top.get("objects", []), "scene.objects", (list, tuple),
-                             expected="an array of tables")
-    objects = []
-    for i, raw in enumerate(raw_objects):
-        where = f"objects[{i}]"
-        kw = _take(raw, ObjectSpec, where)
-        kw["pose"] = _build(Pose, _take(kw.get("pose", {}), Pose, f"{where}.pose"), f"{where}.pose")
-        kw["texture"] = _build(TextureSpec, _take(kw.get("texture", {}), TextureSpec,
-                                                  f"{where}.texture"), f"{where}.texture")
-        if "material" in kw:
-            kw["material"] = _build(MaterialSpec, _take(kw["material"], MaterialSpec,
-                                                        f"{where}.material"), f"{where}.material")
-        objects.append(_build(ObjectSpec, kw, where))
-    top["objects"] = tuple(objects)
-    if "light" in top:
-        top["light"] = _build(LightSpec, _take(top["light"], LightSpec, "scene.light"),
-                              "scene.light")
-    if "lamps" in top:
-        raw_lamps = check_type(top["lamps"], "scene.lamps", (list, tuple),
-                               expected="an array of tables")
-        top["lamps"] = tuple(_build(LampSpec, _take(raw, LampSpec, f"lamps[{i}]"), f"lamps[{i}]")
-                             for i, raw in enumerate(raw_lamps))
-    return _build(SceneSpec, top, "scene")
-
-
-# --------------------------------------------------------------------------- text formats
-def dumps_json(spec: SceneSpec) -> str:
-    """JSON text of a scene (floats in shortest round-trip form)."""
-    return json.dumps(scene_to_dict(spec), indent=2) + "\n"
-
-
-def _parse_text(loads: Any, text: Any, kind: str, where: str) -> Any:
-    """``loads(text)`` with every failure of the parser as a :class:`SceneError` at ``where``."""
-    check_type(text, "text", str, expected=f"the {kind} text of a scene (str)")
-    try:
-        return loads(text)
-    except RecursionError:
-        raise SceneError(f"{where}: {kind} nested too deeply for this parser; a scene is a "
-                         "few levels deep (scene, objects, pose)") from None
-    except ValueError as exc:  # JSONDecodeError, TOMLDecodeError, an int of > 4300 digits
-        raise SceneError(f"{where}: invalid {kind}: {exc}") from None
-
-
-def loads_json(text: str, *, source: str = "scene") -> SceneSpec:
-    """Scene from JSON text written by :func:`dumps_json`.
-
-    Raises
-    ------
-    SceneError
-        On invalid JSON (``source`` names it) or an invalid scene.
-    """
-    return scene_from_dict(_parse_text(json.loads, text, "JSON", source))
-
-
-def dumps_toml(spec: SceneSpec) -> str:
-    """TOML text of a scene (floats in shortest round-trip form)."""
-    return tomli_w.dumps(scene_to_dict(spec))
-
-
-def loads_toml(text: str, *, source: str = "scene") -> SceneSpec:
-    """Scene from TOML text written by :func:`dumps_toml`.
-
-    Raises
-    ------
-    SceneError
-        On invalid TOML (``source`` names it) or an invalid scene.
-    """
-    return scene_from_dict(_parse_text(tomllib.loads, text, "TOML", source))
-
-
-_FORMATS = {".json": (dumps_json, loads_json), ".toml": (dumps_toml, loads_toml)}
-
-
-def _format(path: Path) -> tuple[Any, Any]:
-    try:
-        return _FORMATS[path.suffix.lower()]
-    except KeyError:
-        raise fail(f"scene file {str(path)!r}", f"a suffix in {sorted(_FORMATS)}",
-                   repr(path.suffix), error=SceneError) from None
-
-
-def dump_scene(spec: SceneSpec, path: str | Path) -> Path:
-    """Write a scene to ``path``; the format (TOML or JSON) follows the suffix.
-
-    Returns
-    -------
-    path : pathlib.Path
-        The file written.
-    """
-    path = Path(path)
-    dumps, _ = _format(path)
-    path.write_text(dumps(spec), encoding="utf-8")
-    return path
-
-
-def load_scene(path: str | Path) -> SceneSpec:
-    """Read a scene written by :func:`dump_scene` (format by suffix: ``.toml`` or ``.json``)."""
-    path = Path(path)
-    _, loads = _format(path)
-    text = check_text(path.read_bytes(), str(path), fix="save the scene file as UTF-8",
-                      error=SceneError)
-    try:
-        return loads(text, source=str(path))
-    except StereoforgeError as exc:  # the same class, told which file
-        if str(exc).startswith(str(path)):
-            raise
-        raise type(exc)(f"{path}: {exc}") from None

@@ -5,7 +5,7 @@ Needs ``hypothesis`` (a test dependency); ``import scenes`` does not import this
 Examples
 --------
 >>> from hypothesis import given, settings
->>> from scenes.spec import dumps_json, loads_json
+>>> from scenes.serialize import dumps_json, loads_json
 >>> @settings(max_examples=5, deadline=None, derandomize=True)
 ... @given(scene_specs())
 ... def test_json_round_trip(spec):

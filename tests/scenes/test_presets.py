@@ -7,7 +7,8 @@ import pytest
 
 from scenes.presets import PRESETS, Preset, frame_cover_size, get_preset, list_presets
 from scenes.primitives import build_meshes
-from scenes.spec import SceneSpec, dumps_toml, loads_toml
+from scenes.spec import SceneSpec
+from scenes.serialize import dumps_toml, loads_toml
 
 # Default rig the presets are framed for (see scenes.presets).
 _W, _H, _F, _CX, _CY, _B = 640, 480, 600.0, 319.5, 239.5, 0.1

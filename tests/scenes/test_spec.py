@@ -8,12 +8,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from scenes.spec import (
-    LightSpec,
-    ObjectSpec,
-    Pose,
-    SceneSpec,
-    TextureSpec,
+from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
+from scenes.serialize import (
     dump_scene,
     dumps_json,
     dumps_toml,

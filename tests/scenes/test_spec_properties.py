@@ -8,8 +8,8 @@ from pathlib import Path
 from hypothesis import given
 from hypothesis import strategies as st
 
-from scenes.spec import (
-    SceneSpec,
+from scenes.spec import SceneSpec
+from scenes.serialize import (
     dump_scene,
     dumps_json,
     dumps_toml,
