@@ -22,9 +22,9 @@ RIG = StereoRig.default(64, 48)
 
 
 def test_config_kinds_are_the_library_kinds():
-    from synth.dataset import config
+    from synth.dataset import config_keys
 
-    assert config._GROUND_TRUTH == GROUND_TRUTH
+    assert config_keys.GROUND_TRUTH_KINDS == GROUND_TRUTH
     assert check_ground_truth("semantic,depth") == ("depth", "semantic")
     with pytest.raises(ParameterError, match="expected distinct kinds"):
         check_ground_truth(["depth", "depth"])

@@ -9,8 +9,8 @@ Distributions are written as a plain value (fixed), ``{uniform = [a, b]}``,
 ``{loguniform = [a, b]}`` (``a > 0``) or ``{choice = [v1, v2, ...]}``. An integer key drawn from
 ``uniform``/``loguniform`` gives integers in ``[a, b]`` (both ends included).
 
-One module on purpose: the configuration's schema, its parser and its distributions describe one
-file format.
+The keys themselves (sections, types, bounds, docs) are :mod:`synth.dataset.config_keys`; this
+module parses a file against them into a :class:`DatasetConfig` and draws its distributions.
 """
 
 from __future__ import annotations
@@ -26,13 +26,22 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from scenes import PRESETS
-from scenes.materials import MAX_LAMPS, SPECULAR_MODELS
 from stereoforge.errors import ConfigError, StereoforgeError
-from stereoforge.schema import Key
 from stereoforge.validation import check_keys, describe
 from synth._toml import TomlSource, parse_toml, read_toml_text
-from synth.camera import F_SCALE_RANGE, MAX_ROTATION_DEG, Defocus, Distortion, RigErrors
+from synth.camera import Defocus, Distortion, RigErrors
+from synth.dataset.config_keys import (
+    DIST_FORMS,
+    DIST_KINDS,
+    DIST_SECTIONS,
+    DISTORTION_KEYS,
+    EXAMPLES,
+    GROUND_TRUTH_KINDS,
+    IDEAL_RIG_KEYS,
+    PER_OBJECT_KEYS,
+    SCHEMA,
+    allowed_values,
+)
 from synth.rig import StereoRig
 
 __all__ = [
@@ -46,138 +55,6 @@ __all__ = [
     "config_from_dict",
     "list_examples",
 ]
-
-_MAX_SEED = 2**63
-DIST_KINDS = ("uniform", "loguniform", "choice")
-_DIST_SECTIONS = ("scene", "photometric")  # their keys may be distributions
-_DIST_FORMS = "{uniform=[a,b]}, {loguniform=[a,b]}, {choice=[...]}"
-
-
-def _allowed(section: str, spec: Key) -> str:
-    """What a key of ``section`` takes: its values, and the distributions if it may be one."""
-    if section not in _DIST_SECTIONS:
-        return spec.expected()
-    forms = _DIST_FORMS if spec.kind in ("float", "int") else "{choice=[...]}"
-    return f"{spec.expected()} (or {forms})"
-
-
-_SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
-_DISTORTION = ("k1", "k2", "p1", "p2", "k3")
-#: The ``[rig]`` keys of the ideal rig (always written by :meth:`DatasetConfig.to_dict`).
-_IDEAL_RIG = ("width", "height", "fx", "baseline", "near", "far")
-# synth.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they agree)
-_GROUND_TRUTH = ("depth", "normals", "instance", "semantic", "occlusion_right")
-_OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh")
-_OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
-#: ``[scene]`` keys drawn once per object or occluder (``synth.dataset.sampling``), not per sample.
-PER_OBJECT_KEYS = ("occluder_mesh", "object_texture", "object_image", "object_frequency_px", "object_contrast",
-                   "object_mean", "object_angle")
-
-#: Every section, key and its schema (``""`` is the top level).
-SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
-    "": {
-        "name": Key("str", "dataset", doc="dataset name"),
-        "seed": Key("int", 0, lo=0, hi=_MAX_SEED - 1, doc="dataset seed"),
-        "count": Key("int", 10, lo=1, hi=999_999, doc="number of samples"),
-        "preview": Key("bool", False, doc="also write preview.png per sample"),
-        "ground_truth": Key("str", None, choices=_GROUND_TRUTH, array=True, distinct=True,
-                            doc="optional ground truth to write too (see synth.ground_truth)"),
-    },
-    "rig": {
-        "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),
-        "height": Key("int", 480, lo=8, hi=8192, doc="image height, pixels"),
-        "fx": Key("float", None, lo=0.0, lo_open=True,
-                  doc="focal length in pixels; default 600 * width / 640"),
-        "baseline": Key("float", 0.1, lo=0.0, lo_open=True, hi=100.0,
-                        doc="baseline, metres"),
-        "near": Key("float", 0.1, lo=0.0, lo_open=True, doc="near plane, metres"),
-        "far": Key("float", 100.0, lo=0.0, lo_open=True, doc="far plane, metres"),
-        # the real cameras (synth.camera.RigErrors); unset = the ideal rig, today's bytes
-        "fy": Key("float", None, lo=0.0, lo_open=True, doc="vertical focal length, pixels"),
-        **{f"{side}{k}": Key("float", None, lo=-2.0 if k[0] == "k" else -0.05,
-                             hi=2.0 if k[0] == "k" else 0.05,
-                             doc=f"{'right' if side else 'left'} camera distortion {k} (OpenCV)")
-           for side in ("", "right_") for k in _DISTORTION},
-        **{f"right_{a}_deg": Key("float", None, lo=-MAX_ROTATION_DEG, hi=MAX_ROTATION_DEG,
-                                 doc=f"rotation of the right camera about its {a[1]} axis, degrees")
-           for a in ("rx", "ry", "rz")},
-        "right_dy_px": Key("float", None, lo=-64.0, hi=64.0,
-                           doc="vertical offset of the right principal point, pixels"),
-        "right_f_scale": Key("float", None, lo=F_SCALE_RANGE[0], hi=F_SCALE_RANGE[1],
-                             doc="right focal lengths over the left's"),
-        "focus_distance": Key("float", None, lo=0.0, lo_open=True,
-                              doc="defocus: in-focus depth, metres (unset: no defocus)"),
-        "f_number": Key("float", None, lo=0.5, hi=64.0, doc="defocus: f-number"),
-        "pixel_pitch_um": Key("float", None, lo=0.1, hi=100.0,
-                              doc="defocus: pixel pitch, micrometres (default 3)"),
-    },
-    "scene": {
-        "base": Key("str", "fronto_plane", choices=tuple(PRESETS), doc="base preset"),
-        "texture": Key("str", "preset", choices=_SCENE_TEXTURES,
-                       doc="texture kind of every object ('preset' keeps the preset's)"),
-        "frequency_px": Key("float", None, lo=0.0, lo_open=True, hi=0.5,
-                            doc="texture frequency, cycles per pixel at each object's depth"),
-        "contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast"),
-        "edge_density": Key("float", None, lo=0.005, hi=0.45,
-                            doc="target Canny edge density of the left image (closed loop)"),
-        "occluders": Key("int", 0, lo=0, hi=64, doc="number of occluding objects added"),
-        "occluder_size": Key("float", 0.15, lo=0.0, lo_open=True, hi=1.0,
-                             doc="occluder size, fraction of the image width"),
-        "occluder_depth": Key("float", 1.5, lo=0.0, lo_open=True,
-                              doc="occluder centre depth, metres"),
-        "occluder_kind": Key("str", "box", choices=_OCCLUDER_KINDS, doc="occluder shape"),
-        # materials and light (all unset: matte scenes under the preset's light, as before)
-        "specular_fraction": Key("float", None, lo=0.0, hi=1.0,
-                                 doc="chance of each object to get a specular material"),
-        "specular": Key("float", None, lo=0.0, hi=16.0,
-                        doc="specular strength of a specular object, drawn per object"),
-        "shininess": Key("float", None, lo=1.0, hi=10_000.0,
-                         doc="Blinn-Phong exponent of a specular object, drawn per object"),
-        "specular_model": Key("str", None, choices=SPECULAR_MODELS,
-                              doc="specular lobe of a specular object, drawn per object"),
-        "roughness": Key("float", None, lo=0.02, hi=1.0,
-                         doc="GGX roughness of a specular object, drawn per object"),
-        "lamps": Key("int", None, lo=0, hi=MAX_LAMPS, doc="number of lamps added"),
-        "lamp_intensity": Key("float", None, lo=0.0, hi=100.0,
-                              doc="irradiance of each lamp at the scene centre, drawn per lamp"),
-        "lamp_shadows": Key("bool", None, doc="lamps cast shadows (drawn per lamp)"),
-        "exposure_variant": Key("float", None, lo=0.0, lo_open=True, hi=16.0,
-                                doc="im1E: linear exposure factor of the right view"),
-        "lighting_variant": Key("float", None, lo=0.0, hi=180.0,
-                                doc="im1L: degrees the light directions turn for the right view"),
-        "occluder_mesh": Key("str", None, doc="mesh file of 'mesh' occluders (OBJ, PLY, STL, "
-                             "GLB, ...), drawn per occluder"),
-        "object_texture": Key("str", None, choices=_OBJECT_TEXTURES,
-                              doc="texture kind, drawn per object (repeat a choice to weight it)"),
-        "object_image": Key("str", None, doc="photograph of an 'image' texture, drawn per "
-                            "object: skimage:<name>, a file or a folder"),
-        "object_frequency_px": Key("float", None, lo=0.0, lo_open=True, hi=0.5,
-                                   doc="texture frequency per object, cycles per pixel at its "
-                                       "depth (of a photograph: its mean frequency)"),
-        "object_contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast per object"),
-        "object_mean": Key("float", None, lo=0.0, hi=1.0, doc="texture mean grey per object"),
-        "object_angle": Key("float", None, doc="texture angle per object, degrees"),
-        "textureless_area": Key("float", None, lo=0.0, hi=1.0,
-                                doc="target share of the left image showing constant-textured "
-                                    "objects (measured, synth.textureless)"),
-    },
-    "photometric": {
-        "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,
-                           doc="Gaussian noise standard deviation, grey levels (0..255)"),
-        "gain": Key("float", 1.0, lo=0.0, lo_open=True, hi=4.0,
-                    doc="gain of the right image relative to the left"),
-        "bias": Key("float", 0.0, lo=-128.0, hi=128.0,
-                    doc="bias of the right image relative to the left, grey levels"),
-        "gamma": Key("float", 1.0, lo=0.1, hi=10.0, doc="gamma applied to both images"),
-        "blur_sigma": Key("float", 0.0, lo=0.0, hi=16.0,
-                          doc="Gaussian blur standard deviation, pixels, both images"),
-        "jpeg_quality": Key("int", 0, lo=0, hi=100, doc="JPEG round trip quality, 0 = off"),
-    },
-})
-
-#: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
-EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig", "middlebury-like")
-
 
 # --------------------------------------------------------------------------- distributions
 @dataclass(frozen=True)
@@ -267,7 +144,7 @@ class DatasetConfig:
 
     def to_dict(self, *, with_count: bool = True) -> dict[str, Any]:
         """Canonical plain dict (the TOML structure, defaults filled in)."""
-        rig = {k: v for k, v in self.rig.to_dict().items() if k in _IDEAL_RIG}
+        rig = {k: v for k, v in self.rig.to_dict().items() if k in IDEAL_RIG_KEYS}
         rig.update(_camera_keys(self.rig))
         out: dict[str, Any] = {"name": self.name, "seed": self.seed, "preview": self.preview,
                                "rig": rig,
@@ -304,21 +181,21 @@ class _Parser:
             raise self.fail(section, key, f"a fixed value: {spec.expected()}",
                             f"the table {value!r}",
                             fix=f"{key} takes a fixed value, not a distribution or table")
-        dist_too = section in _DIST_SECTIONS and not part and spec.kind in ("float", "int")
+        dist_too = section in DIST_SECTIONS and not part and spec.kind in ("float", "int")
         path = (*(p for p in (section, key) if p), *part)
         return self.toml.check(spec, value, path, scalar=True,
-                               fix=f"{_DIST_FORMS} are allowed too" if dist_too else None)
+                               fix=f"{DIST_FORMS} are allowed too" if dist_too else None)
 
     def dist(self, section: str, key: str, value: Any) -> Dist:
         spec = SCHEMA[section][key]
         if not isinstance(value, dict):
             if isinstance(value, list):
-                raise self.fail(section, key, _allowed(section, spec), f"the array {value!r}",
+                raise self.fail(section, key, allowed_values(section, spec), f"the array {value!r}",
                                 fix=f"write a distribution as {{choice = {value!r}}} or "
                                     "{uniform = [a, b]}")
             return Dist("fixed", (self.scalar(section, key, value),))
         if len(value) != 1 or next(iter(value)) not in DIST_KINDS:
-            raise self.fail(section, key, f"a value or exactly one of {_DIST_FORMS}", repr(value))
+            raise self.fail(section, key, f"a value or exactly one of {DIST_FORMS}", repr(value))
         kind, args = next(iter(value.items()))
         if not isinstance(args, list) or not args:
             raise self.fail(section, key, f"{{{kind} = [...]}} with a non-empty list",
@@ -327,7 +204,7 @@ class _Parser:
             return Dist("choice", tuple(self.scalar(section, key, v, (f"choice[{i}]",))
                                         for i, v in enumerate(args)))
         if spec.kind not in ("float", "int"):
-            raise self.fail(section, key, _allowed(section, spec), repr(value),
+            raise self.fail(section, key, allowed_values(section, spec), repr(value),
                             fix=f"{key} is a {spec.kind}: only {{choice=[...]}} applies")
         if len(args) != 2:
             raise self.fail(section, key, f"{{{kind} = [a, b]}}", repr(value))
@@ -425,11 +302,11 @@ class _Parser:
                             baseline=rig_kw["baseline"], near=rig_kw["near"],
                             far=rig_kw["far"], errors=_rig_errors(rig_kw))
         except StereoforgeError as exc:
-            first = next((k for k in SCHEMA["rig"] if k not in _IDEAL_RIG
+            first = next((k for k in SCHEMA["rig"] if k not in IDEAL_RIG_KEYS
                           and rig_kw[k] is not None), "width")
             raise ConfigError(f"{self.toml.where('rig', first)}: [rig] {exc}") from None
         sections = {}
-        for sec in _DIST_SECTIONS:
+        for sec in DIST_SECTIONS:
             raw = self.section(data.get(sec, {}), sec)
             out = {}
             for key, spec in SCHEMA[sec].items():
@@ -454,20 +331,20 @@ class _Parser:
             preview=top.get("preview", False), rig=rig,
             scene=MappingProxyType(scene), photometric=MappingProxyType(sections["photometric"]),
             source=self.source,
-            ground_truth=tuple(k for k in _GROUND_TRUTH if k in (top.get("ground_truth") or ())),
+            ground_truth=tuple(k for k in GROUND_TRUTH_KINDS if k in (top.get("ground_truth") or ())),
         )
 
 
 def _rig_errors(kw: Mapping[str, Any]) -> RigErrors | None:
     """The camera errors of the ``[rig]`` keys (``None`` when none is set: the ideal rig)."""
-    if all(kw[k] is None for k in SCHEMA["rig"] if k not in (*_IDEAL_RIG, "fy")):
+    if all(kw[k] is None for k in SCHEMA["rig"] if k not in (*IDEAL_RIG_KEYS, "fy")):
         return None
     if (kw["focus_distance"] is None) != (kw["f_number"] is None):
         raise ConfigError("focus_distance and f_number: expected both (defocus) or neither, "
                           "got one; set both to blur by depth, or remove the one set")
 
     def dist(prefix: str) -> Distortion:
-        return Distortion(*(kw[f"{prefix}{k}"] or 0.0 for k in _DISTORTION))
+        return Distortion(*(kw[f"{prefix}{k}"] or 0.0 for k in DISTORTION_KEYS))
 
     defocus = None if kw["focus_distance"] is None else Defocus(
         kw["focus_distance"], kw["f_number"],
@@ -485,8 +362,8 @@ def _camera_keys(rig: StereoRig) -> dict[str, Any]:
     e = rig.errors
     if e is None:
         return out
-    values = {**{k: v for k, v in zip(_DISTORTION, e.left.coeffs)},
-              **{f"right_{k}": v for k, v in zip(_DISTORTION, e.right.coeffs)},
+    values = {**{k: v for k, v in zip(DISTORTION_KEYS, e.left.coeffs)},
+              **{f"right_{k}": v for k, v in zip(DISTORTION_KEYS, e.right.coeffs)},
               **{f"right_{a}_deg": v for a, v in zip(("rx", "ry", "rz"), e.rotation_deg)},
               "right_dy_px": e.dy_px, "right_f_scale": e.f_scale}
     out.update({k: v for k, v in values.items()
