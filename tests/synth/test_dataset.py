@@ -192,7 +192,7 @@ def test_a_foreign_directory_or_a_busy_one_is_refused(tmp_path):
     busy.mkdir()
     fd = os.open(busy / ".lock", os.O_RDWR | os.O_CREAT)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        fcntl.lockf(fd, fcntl.LOCK_EX)  # a record lock, as runs take (synth.dataset.parts)
         with pytest.raises(DatasetError, match="another run is writing"):
             run_dataset(cfg, out=busy, progress=False)
     finally:

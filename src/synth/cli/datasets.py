@@ -19,6 +19,11 @@ __all__ = ["dataset"]
                      "gs://... with gcsfs; needs pip install 'stereoforge[storage]').")
 @click.option("--count", default=None, type=click.IntRange(min=1),
               help="Number of pairs [default: the config's count].")
+@click.option("--indices", default=None, metavar="START:STOP",
+              help="Render only samples START .. STOP-1 of the --count (Python slice; 5000: runs "
+                   "to --count): one part, for several drivers writing one --out at once on "
+                   "disjoint ranges. Parts write no manifest: when all have ended, rerun without "
+                   "--indices to write it (it renders only what is missing).")
 @workers_option
 @engine_option
 @click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
@@ -41,14 +46,17 @@ __all__ = ["dataset"]
               help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
                    "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
                    "no CONFIG.")
-def dataset(config, out, count, workers, engine, address, fmt, shard_size, disp_encoding,
-            backend, verify_dir, upgrade) -> None:
+def dataset(config, out, count, indices, workers, engine, address, fmt, shard_size,
+            disp_encoding, backend, verify_dir, upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
     one with --verify DIR, or convert one of the previous layout with --upgrade DIR.
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
+    if indices is not None and (upgrade is not None or verify_dir is not None):
+        raise click.UsageError("--indices chooses the samples a run renders: drop it with "
+                               "--verify and --upgrade (they check or convert the whole dataset)")
     if upgrade is not None:
         if config is not None or out is not None or verify_dir is not None:
             raise click.UsageError("--upgrade DIR converts DIR in place: drop CONFIG, --out and "
@@ -73,6 +81,12 @@ def dataset(config, out, count, workers, engine, address, fmt, shard_size, disp_
         raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
                                "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
+    if indices is not None:  # START:STOP -> a range, checked against the count, before any work
+        from synth.dataset.config import load_config
+        from synth.dataset.parts import parse_indices
+
+        config = load_config(config)
+        indices = parse_indices(indices, config.count if count is None else count, fmt=fmt)
     if shard_size is not None:  # refused with a format without shards, before any work
         from synth.dataset.shards import check_shard_option, parse_size
 
@@ -97,6 +111,11 @@ def dataset(config, out, count, workers, engine, address, fmt, shard_size, disp_
     # a failed sample (SampleError, exit 1) names its index and how to reproduce it alone
     run = run_dataset(config, out=out, count=count, workers=workers, engine=engine,
                       address=address, fmt=fmt, progress=True, backend=backend,
-                      shard_size=shard_size, disp_encoding=disp_encoding)
+                      shard_size=shard_size, disp_encoding=disp_encoding, indices=indices)
+    if run.indices != range(run.count):
+        click.echo(f"samples {run.indices.start}:{run.indices.stop} of {run.count} in {run.out}: "
+                   f"{run.rendered} rendered, {run.skipped} already there, {run.seconds:.1f} s; "
+                   "no manifest written: once every part has ended, rerun without --indices")
+        return
     click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
                f"there, {run.seconds:.1f} s")

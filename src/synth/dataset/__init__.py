@@ -6,6 +6,7 @@
 - :mod:`synth.dataset.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
 - :mod:`synth.dataset.storage` — folders and fsspec URLs; the commit of returned samples.
 - :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
+- :mod:`synth.dataset.parts` — one dataset over several drivers: index ranges and their lock.
 - :mod:`synth.dataset.layout` — where the sample folders live; the upgrade of the previous layout.
 - :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
 - :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.

@@ -11,7 +11,7 @@ Layout of a dataset directory ``out/``::
     training/samples/000000/      scene.json sample.json; the images go to  (fmt="kitti")
     training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
     training/calib_cam_to_cam/                                    000000.txt
-    .lock               held (flock) by the run writing the directory
+    .lock               locked by the runs writing the directory (synth.dataset.parts)
 
 Guarantees (see ``docs/datasets.md``):
 
@@ -26,6 +26,8 @@ Guarantees (see ``docs/datasets.md``):
   ends with the same bytes as an uninterrupted run;
 - a directory made by another configuration (or format) is refused (hash in ``dataset.json``);
   ``count`` is not part of the hash, so a dataset can be extended;
+- several runs over disjoint ``indices`` (one driver each) may write one dataset at once, and a
+  whole run then writes the manifests (:mod:`synth.dataset.parts`);
 - a failing sample leaves no files and raises :exc:`SampleError` naming its index and seed;
   :func:`render_from_manifest` reproduces it alone.
 
@@ -36,7 +38,6 @@ invariants (the folder rename is the completion marker), which are easier to kee
 from __future__ import annotations
 
 import dataclasses
-import fcntl
 import json
 import os
 import re
@@ -58,6 +59,7 @@ from synth.dataset.integrity import completion_record, sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
                                   sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
+from synth.dataset.parts import check_indices, is_part, lock_run
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage import FsPath, commit_sample, dataset_path, is_local, remove_tree, write_bytes
 from synth.export import staged_output_dir, write_pair
@@ -110,9 +112,11 @@ class DatasetRun:
     count : int
         Samples the dataset holds (``0 .. count - 1``).
     rendered, skipped : int
-        Samples rendered by this run, and found complete.
+        Samples of ``indices`` rendered by this run, and found complete.
     seconds : float
         Wall time of the run.
+    indices : range
+        The samples this run covered (``range(count)`` unless it was a part).
     """
 
     out: Path | FsPath
@@ -120,6 +124,7 @@ class DatasetRun:
     rendered: int
     skipped: int
     seconds: float
+    indices: range = range(0)
 
 
 def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
@@ -382,49 +387,36 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | 
     if disp_encoding is not None:  # absent by default: dataset.json as before
         header["disp_encoding"] = disp_encoding
     path = out / "dataset.json"
-    if path.is_file():
-        old = read_json_object(path, what="dataset header", fix=MODIFIED_FIX)
-        if old.get("shard_size") != shard_size:
-            raise DatasetError(f"{out} holds shards of {old.get('shard_size')} bytes, not "
-                               f"{shard_size}; rerun with --shard-size {old.get('shard_size')}")
-        if old.get("disp_encoding") != disp_encoding:
-            raise DatasetError(f"{out} holds shards with float maps encoded as "
-                               f"{old.get('disp_encoding') or 'pfm'}, not {disp_encoding or 'pfm'}"
-                               f"; rerun with --disp-encoding {old.get('disp_encoding') or 'pfm'}")
-        if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
-            raise DatasetError(
-                f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
-                f"hash {str(old.get('config_hash'))[:12]}) made by another configuration than "
-                f"{config.source} (format {fmt!r}, hash {header['config_hash'][:12]}); choose "
-                "another output directory, or delete this one to start over")
-        if old.get("format_version") != _FORMAT_VERSION:
-            raise DatasetError(
-                f"{out} holds dataset {old.get('name')!r} of sample format version "
-                f"{old.get('format_version')!r}, written by another stereoforge version; this "
-                f"one writes version {_FORMAT_VERSION} (other bytes for the same seeds), so the "
-                "dataset cannot be extended here: finish it with the version that started it, "
-                "or choose a new output directory")
-        check_layout(out)
-        return
-    others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
-    if others:
-        raise DatasetError(f"{out} is not empty ({', '.join(others[:5])}"
-                           f"{', ...' if len(others) > 5 else ''}) and holds no dataset.json; "
-                           "choose an empty or new directory")
-    write_bytes(path, _json_bytes(header))
-
-
-def _lock(out: Path | FsPath) -> int | None:
-    if not is_local(out):
-        return None  # object stores have no lock: one run per output URL at a time
-    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        os.close(fd)
-        raise DatasetError(f"another run is writing {out} (it holds {out / '.lock'}); wait for "
-                           "it to finish or stop it") from None
-    return fd
+    if not path.is_file():
+        others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
+        if not others:  # drivers creating it at once (object stores) write the same bytes
+            write_bytes(path, _json_bytes(header))
+        elif not path.is_file():  # (unless another driver of this dataset just wrote it)
+            raise DatasetError(f"{out} is not empty ({', '.join(others[:5])}"
+                               f"{', ...' if len(others) > 5 else ''}) and holds no dataset.json; "
+                               "choose an empty or new directory")
+    old = read_json_object(path, what="dataset header", fix=MODIFIED_FIX)
+    if old.get("shard_size") != shard_size:
+        raise DatasetError(f"{out} holds shards of {old.get('shard_size')} bytes, not "
+                           f"{shard_size}; rerun with --shard-size {old.get('shard_size')}")
+    if old.get("disp_encoding") != disp_encoding:
+        raise DatasetError(f"{out} holds shards with float maps encoded as "
+                           f"{old.get('disp_encoding') or 'pfm'}, not {disp_encoding or 'pfm'}"
+                           f"; rerun with --disp-encoding {old.get('disp_encoding') or 'pfm'}")
+    if old.get("config_hash") != header["config_hash"] or old.get("format") != fmt:
+        raise DatasetError(
+            f"{out} holds dataset {old.get('name')!r} (format {old.get('format')!r}, config "
+            f"hash {str(old.get('config_hash'))[:12]}) made by another configuration than "
+            f"{config.source} (format {fmt!r}, hash {header['config_hash'][:12]}); choose "
+            "another output directory, or delete this one to start over")
+    if old.get("format_version") != _FORMAT_VERSION:
+        raise DatasetError(
+            f"{out} holds dataset {old.get('name')!r} of sample format version "
+            f"{old.get('format_version')!r}, written by another stereoforge version; this "
+            f"one writes version {_FORMAT_VERSION} (other bytes for the same seeds), so the "
+            "dataset cannot be extended here: finish it with the version that started it, "
+            "or choose a new output directory")
+    check_layout(out)
 
 
 # --------------------------------------------------------------------------- public API
@@ -441,6 +433,7 @@ def run_dataset(
     backend: str = "auto",
     shard_size: int | None = None,
     disp_encoding: str | None = None,
+    indices: range | None = None,
 ) -> DatasetRun:
     """Render (or finish) the dataset of ``config`` into ``out``.
 
@@ -472,6 +465,12 @@ def run_dataset(
         lossless); refused with other formats.
     shard_size : int, optional
         Bytes per shard of ``fmt="webdataset"`` (default about 1 GB); refused with other formats.
+    indices : range, optional
+        Only these samples (step 1, inside ``0 .. count - 1``; default all): one *part* of the
+        dataset, which ``count`` still defines. Parts on disjoint ranges may write into one
+        ``out`` at once (one driver each); a part writes no manifest: once all have ended, a run
+        without ``indices`` writes it (and renders only what is missing). Refused with
+        ``fmt="webdataset"``. See :mod:`synth.dataset.parts`.
 
     Returns
     -------
@@ -480,7 +479,8 @@ def run_dataset(
     Raises
     ------
     DatasetError
-        ``out`` holds another dataset, other files, or is being written by another run.
+        ``out`` holds another dataset, other files, or another run is writing it (a whole run,
+        or a part whose ``indices`` overlap).
     SampleError
         A sample failed (its index and seed are in the message); the samples completed before
         stay, and the manifest lists them.
@@ -502,6 +502,8 @@ def run_dataset(
         raise ValueError(f"count must be an int in [1, 999999], got {count!r}")
     if fmt not in DATASET_FORMATS:
         raise ValueError(f"fmt must be one of {', '.join(DATASET_FORMATS)}, got {fmt!r}")
+    indices = check_indices(indices, count, fmt=fmt)
+    part = is_part(indices, count)
     shard_size = check_shard_option(fmt, shard_size)
     disp_encoding = check_disp_encoding(fmt, disp_encoding)
     if cfg.rig.errors is not None and fmt == "kitti":
@@ -525,11 +527,12 @@ def run_dataset(
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out} exists and is not a directory; choose another output")
     out.mkdir(parents=True, exist_ok=True)
-    lock = _lock(out)
+    lock = lock_run(out, indices, count)
     try:
-        _open_dataset(out, cfg, fmt, shard_size, disp_encoding)
-        for stale in out.iterdir():
-            if _TMP_DIR.match(stale.name):
+        with lock.header():
+            _open_dataset(out, cfg, fmt, shard_size, disp_encoding)
+        for stale in out.iterdir():  # a part removes its own only: another's may be in use
+            if _TMP_DIR.match(stale.name) and (not part or int(stale.name[1:7]) in indices):
                 remove_tree(stale)
         # a sample is done when its completion record exists and its files have the recorded
         # sizes (checksums: verify_dataset, `stereoforge dataset --verify`); else render again
@@ -538,7 +541,7 @@ def run_dataset(
             complete=lambda i: not sample_problems(out, fmt, i),
             forget=lambda i: record_path(out, i).unlink(missing_ok=True),
             disp_encoding=disp_encoding)
-        todo = packer.todo(count) if packer else [i for i in range(count)
+        todo = packer.todo(count) if packer else [i for i in indices
                                                  if sample_problems(out, fmt, i)]
         for i in todo:
             remove_tree(record_path(out, i))
@@ -565,12 +568,12 @@ def run_dataset(
             raise
         finally:
             bar.close()
-            write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
+            if not part:  # a part leaves the manifests to a whole run (synth.dataset.parts)
+                write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
     finally:
-        if lock is not None:
-            os.close(lock)
-    return DatasetRun(out=out, count=count, rendered=len(todo), skipped=count - len(todo),
-                      seconds=time.perf_counter() - t0)
+        lock.close()
+    return DatasetRun(out=out, count=count, rendered=len(todo), skipped=len(indices) - len(todo),
+                      seconds=time.perf_counter() - t0, indices=indices)
 
 
 def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path,

@@ -3,7 +3,7 @@
 :func:`dataset_path` turns what the user passed as ``out`` into a path object:
 
 - a local path or a ``file://`` URL -> :class:`pathlib.Path` (everything as before: temporary
-  sample folders renamed into place, ``flock`` on ``.lock``);
+  sample folders renamed into place, byte-range locks on ``.lock``: :mod:`synth.dataset.parts`);
 - any other URL -> :class:`FsPath`, a small :class:`~pathlib.Path`-like view of one location of
   an fsspec filesystem, with just the methods the dataset code calls (``/``, ``name``,
   ``is_dir``, ``is_file``, ``exists``, ``iterdir``, ``rglob``, ``stat``, ``read_bytes``,
