@@ -130,7 +130,7 @@ MUTANTS += (
     ),
     Mutant(
         "record forgets the KITTI images",
-        "src/synth/dataset/run.py",
+        "src/synth/dataset/commit.py",
         (('for path in sorted(p for p in tmp.rglob("*") if p.is_file()):',
           'for path in sorted(p for p in tmp.glob("*") if p.is_file()):'),),
         "the completion record lists the sample folder only, not training/image_2/ ... of KITTI",
@@ -146,7 +146,7 @@ MUTANTS += (
     ),
     Mutant(
         "photometric noise seeded by the dataset",
-        "src/synth/dataset/run.py",
+        "src/synth/dataset/sample.py",
         (("rng=stream(draw.seed, STREAM_PHOTOMETRIC)",
           "rng=stream(config.seed, STREAM_PHOTOMETRIC)"),),
         "every sample gets the same noise field (dataset seed instead of the sample's)",
@@ -154,7 +154,7 @@ MUTANTS += (
     ),
     Mutant(
         "photometric noise shares the preset's stream",
-        "src/synth/dataset/run.py",
+        "src/synth/dataset/sample.py",
         (("rng=stream(draw.seed, STREAM_PHOTOMETRIC)", "rng=stream(draw.seed, 1)"),),
         "the noise is drawn from the stream that seeds the base preset (correlated draws)",
         _DATASET,
@@ -196,7 +196,7 @@ MUTANTS += (
     ),
     Mutant(
         "occluded fraction counts invalid pixels",
-        "src/synth/dataset/run.py",
+        "src/synth/dataset/sample.py",
         (("np.count_nonzero(pair.mask_left == 128) / mask_size",
           "np.count_nonzero(pair.mask_left != 255) / mask_size"),),
         "manifest occluded_fraction includes the invalid (mask 0) pixels",

@@ -15,7 +15,7 @@ from typing import Any
 
 from stereoforge.errors import DatasetError, StereoforgeError
 
-__all__ = ["loads_json_object", "read_json_object"]
+__all__ = ["json_bytes", "loads_json_object", "read_json_object"]
 
 _TYPE_NAMES = {dict: "an object", list: "an array", str: "a string", int: "an integer",
                float: "a number", bool: "true or false"}
@@ -88,3 +88,14 @@ def read_json_object(path: str | Path, *, what: str, keys: Mapping[str, type] | 
     path = Path(path) if isinstance(path, str) else path  # or an fsspec path (dataset.storage)
     return loads_json_object(path.read_bytes(), where=str(path), what=what, keys=keys, fix=fix,
                              error=error)
+
+
+def json_bytes(obj: Any) -> bytes:
+    """``obj`` as the canonical JSON of our records (indented, sorted keys, final newline).
+
+    Examples
+    --------
+    >>> json_bytes({"b": 1, "a": 2}).decode().splitlines()
+    ['{', '  "a": 2,', '  "b": 1', '}']
+    """
+    return (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode()

@@ -87,7 +87,7 @@ import os, sys, threading
 import cv2, numpy, scipy.linalg  # their BLAS thread pools start at import (fork-aware)
 libraries = len(os.listdir("/proc/self/task"))
 from synth.dataset.config import load_config
-from synth.dataset.run import SampleTask
+from synth.dataset.sample import SampleTask
 from synth.dataset.engine import _preload
 modules = _preload(SampleTask(load_config("planes"), "/nonexistent", "middlebury", "auto"))
 for name in modules:
@@ -102,7 +102,7 @@ print(threading.active_count(), len(os.listdir("/proc/self/task")) - libraries)
 def test_the_fork_server_preload_opens_no_gl_and_starts_no_thread():
     out = subprocess.run([sys.executable, "-c", _PRELOAD], capture_output=True, text=True,
                          check=True).stdout.splitlines()
-    assert out[0] == str(sorted(["synth.dataset.guard", "synth.dataset.engine", "synth.dataset.run",
+    assert out[0] == str(sorted(["synth.dataset.guard", "synth.dataset.engine", "synth.dataset.sample",
                                  "synth.pair",
                                  "synth.dataset.warm"]))
     assert out[1] == "[]"  # nothing GL: a forked GL state would be unusable

@@ -31,74 +31,48 @@ Guarantees (see ``docs/datasets.md``):
 - a failing sample leaves no files and raises :exc:`SampleError` naming its index and seed;
   :func:`render_from_manifest` reproduces it alone.
 
-One module on purpose: the run, its resume and its manifests share the on-disk layout and its
-invariants (the folder rename is the completion marker), which are easier to keep in one place.
+The run, its resume and its manifests live here; one sample's production and the per-sample task
+are :mod:`synth.dataset.sample`, the commit of a rendered sample (rename, completion record,
+returned bytes) :mod:`synth.dataset.commit`.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import json
-import os
 import re
-import shutil
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
-from matcher.io import atomic_write_bytes
-from synth._json import read_json_object
-from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
+from synth._json import json_bytes, read_json_object
+from stereoforge.errors import DatasetError, ParameterError
+from synth.dataset.commit import commit_files, commit_returned
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
-from synth.dataset.integrity import completion_record, sample_problems
+from synth.dataset.integrity import sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
                                   sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.parts import check_indices, is_part, lock_run
+from synth.dataset.sample import SampleError, SampleTask, produce_sample, render_draw
+from synth.dataset.sampling import sample_seed
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
-from synth.dataset.storage import FsPath, commit_sample, dataset_path, is_local, remove_tree, write_bytes
-from synth.export import staged_output_dir, write_pair
-from synth.formats import DATASET_FORMATS, KITTI_ROOT
-from synth.photometric import apply_photometric
+from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, write_bytes
+from synth.export import staged_output_dir
+from synth.formats import DATASET_FORMATS
 from synth.progress import progress as progress_bar
-from synth.dataset.sampling import (
-    STREAM_EXPOSURE_NOISE,
-    STREAM_LIGHTING_NOISE,
-    STREAM_PHOTOMETRIC,
-    STREAM_TEXTURELESS,
-    draw_sample,
-    effective_frequency_px,
-    sample_seed,
-    stream,
-)
-from synth.texture_control import CANNY_SETTINGS, edge_density, match_edge_density
+from synth.texture_control import CANNY_SETTINGS
 
+# SampleError, SampleTask, produce_sample, render_draw (synth.dataset.sample) and the commit
+# functions (synth.dataset.commit) are re-exported: the run's public surface stays in one place
 __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_sample", "run_dataset",
-           "render_from_manifest", "read_manifest", "commit_files", "commit_returned"]
+           "render_from_manifest", "read_manifest", "render_draw", "commit_files",
+           "commit_returned"]
 
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
 #: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
 _FORMAT_VERSION = 2
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _HEADER_KEYS = {"config": dict, "format": str}
-
-
-class SampleError(StereoforgeError, RuntimeError):
-    """Rendering or writing one sample failed; ``index`` and ``seed`` reproduce it."""
-
-    def __init__(self, index: int, seed: int, cause: str) -> None:
-        super().__init__(f"sample {index} (seed {seed}) failed: {cause}; reproduce it alone with "
-                         f"render_from_manifest(dataset_dir, {index}, out=...) or "
-                         f"`stereoforge render --from-manifest DATASET_DIR {index} --out DIR`")
-        self.index, self.seed, self.cause = index, seed, cause
-
-    def __reduce__(self) -> tuple:  # picklable across processes
-        return (SampleError, (self.index, self.seed, self.cause))
 
 
 @dataclass(frozen=True)
@@ -125,240 +99,6 @@ class DatasetRun:
     skipped: int
     seconds: float
     indices: range = range(0)
-
-
-def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
-                 ) -> tuple[Any, float]:
-    """The scene with objects made constant toward ``textureless_area`` (stream 5 orders them),
-    and its measured textureless fraction (:mod:`synth.textureless`)."""
-    from synth.textureless import match_textureless, object_coverage
-
-    rig = config.rig
-    coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)
-    return match_textureless(scene, float(draw.params["scene.textureless_area"]), coverage,
-                             rig.width * rig.height, stream(draw.seed, STREAM_TEXTURELESS))
-
-
-def _r(value: float | None) -> float | None:
-    return None if value is None else round(float(value), 6)
-
-
-def _json_bytes(obj: Any) -> bytes:
-    return (json.dumps(obj, indent=2, sort_keys=True) + "\n").encode()
-
-
-# --------------------------------------------------------------------------- one sample
-def render_draw(config: DatasetConfig, draw: Any, scene: Any, renderer: Any) -> Any:
-    """The exact pair of a drawn sample: ``scene`` (the draw's, possibly changed after drawing)
-    through the config's rig, with the draw's ``im1E`` exposure and ``im1L`` relighting when it
-    asks for them. The one place a dataset sample (and a validate pair) is rendered."""
-    from synth.pair import render_pair
-
-    lighting = None
-    if draw.relight is not None:
-        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
-    return render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
-                       lighting=lighting)
-
-
-def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path, fmt: str, *,
-             timings: dict[str, float] | None = None) -> dict:
-    """Render sample ``index`` and write all its files into ``dest``; return its record.
-
-    ``timings``, if given, accumulates the seconds spent per stage (draw, search, render,
-    stats, photometric, write): wall time under ``stage`` and CPU time of the process (all
-    threads, e.g. llvmpipe's) under ``stage + "_cpu"``.
-    """
-    clock = [time.perf_counter(), time.process_time()]
-
-    def lap(stage: str) -> None:
-        now = [time.perf_counter(), time.process_time()]
-        if timings is not None:
-            timings[stage] = timings.get(stage, 0.0) + now[0] - clock[0]
-            timings[f"{stage}_cpu"] = timings.get(f"{stage}_cpu", 0.0) + now[1] - clock[1]
-        clock[:] = now
-
-    draw = draw_sample(config, index)
-    scene, search = draw.scene, None
-    lap("draw")
-    if draw.edge_density is not None:
-        search = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer)
-        scene = search.scene
-    textureless = None
-    if "scene.textureless_area" in draw.params:
-        scene, textureless = _textureless(scene, config, draw, renderer)
-    lap("search")
-    pair = render_draw(config, draw, scene, renderer)
-    lap("render")
-    out = apply_photometric(pair.left, pair.right, draw.photometric,
-                            rng=stream(draw.seed, STREAM_PHOTOMETRIC))
-    variants = {}  # the right-view variants under the same sensor model, their own noise
-    for name, noise in (("right_exposure", STREAM_EXPOSURE_NOISE),
-                        ("right_lighting", STREAM_LIGHTING_NOISE)):
-        if getattr(pair, name) is not None:
-            variants[name] = apply_photometric(pair.left, getattr(pair, name), draw.photometric,
-                                               rng=stream(draw.seed, noise)).right
-    lap("photometric")
-    if search is not None and np.array_equal(search.left, pair.left):
-        rho = search.edge_density  # the search measured this very image: skip a second Canny
-    else:
-        rho = edge_density(pair.left)
-    degraded = dataclasses.replace(pair, left=out.left, right=out.right, **variants)
-    finite = np.isfinite(pair.disp_left)
-    has_finite = bool(finite.any())
-    mask_size = pair.mask_left.size
-    stats = {
-        "edge_density": _r(rho),
-        "edge_search_probes": None if search is None else search.probes,
-        "edge_search_converged": None if search is None else search.converged,
-        "texture_frequency_px": _r(effective_frequency_px(scene, fx=config.rig.fx)),
-        "disp_min": _r(np.min(pair.disp_left, where=finite, initial=np.inf)) if has_finite
-        else None,
-        "disp_max": _r(np.max(pair.disp_left, where=finite, initial=-np.inf)) if has_finite
-        else None,
-        # = np.mean(mask == code): the same float (an exact count over the size), 6x faster
-        "occluded_fraction": _r(np.count_nonzero(pair.mask_left == 128) / mask_size),
-        "invalid_fraction": _r(np.count_nonzero(pair.mask_left == 0) / mask_size),
-    }
-    if textureless is not None:  # only then: other datasets keep their manifests' bytes
-        stats["textureless_fraction"] = _r(textureless)
-    lap("stats")
-    record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
-              "params": dict(draw.params), "stats": stats}
-    dest.mkdir(parents=True, exist_ok=True)
-    write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
-               fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
-               preview=config.preview, fsync=False)
-    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.ground_truth)
-        from synth.ground_truth import render_ground_truth, write_ground_truth
-
-        write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
-                                                     renderer=renderer), fsync=False)
-    atomic_write_bytes(dest / "sample.json", _json_bytes(record), fsync=False)
-    lap("write")
-    return record
-
-
-def _commit(tmp: Path, out: Path, index: int, fmt: str) -> None:
-    """Move a finished sample into place; the final rename is the completion marker."""
-    if fmt == "kitti":
-        shared = tmp / KITTI_ROOT
-        for sub in sorted(shared.iterdir()):
-            (out / KITTI_ROOT / sub.name).mkdir(parents=True, exist_ok=True)
-            for f in sorted(sub.iterdir()):
-                os.replace(f, out / KITTI_ROOT / sub.name / f.name)
-            sub.rmdir()
-        shared.rmdir()
-    final = sample_dir(out, fmt, index)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        os.rename(tmp, final)
-    except OSError:
-        if not record_path(out, index).is_file():
-            raise
-        shutil.rmtree(tmp, ignore_errors=True)  # finished meanwhile by another process: same bytes
-    # No fsync of `out`: the files are not fsynced either (see docs/datasets.md), so making the
-    # rename durable would buy nothing after a power loss, and it costs ~3 ms per sample.
-
-
-def _dataset_files(tmp: Path, index: int, fmt: str) -> list[tuple[str, Path]]:
-    """The files of a sample's temporary folder, as (path in the dataset, file) pairs."""
-    folder = sample_dir(Path(), fmt, index).as_posix()
-    files = []
-    for path in sorted(p for p in tmp.rglob("*") if p.is_file()):
-        rel = path.relative_to(tmp)
-        in_dataset = rel.as_posix() if fmt == "kitti" and rel.parts[0] == KITTI_ROOT \
-            else f"{folder}/{rel.as_posix()}"
-        files.append((in_dataset, path))
-    return files
-
-
-def _record_name(index: int) -> str:
-    """The completion record's path in the dataset (``records/NNNNNN.json``)."""
-    return record_path(Path(), index).as_posix()
-
-
-def _write_record(out: Path | FsPath, index: int, record: bytes) -> None:
-    """Write the completion record last, once the sample's files are in place."""
-    path = record_path(out, index)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_bytes(path, record)
-
-
-def _returned_files(tmp: Path, index: int, fmt: str) -> dict[str, bytes]:
-    """A rendered sample's files as a worker returns them (path in the dataset -> bytes), its
-    completion record among them."""
-    listed = _dataset_files(tmp, index, fmt)
-    files = {name: path.read_bytes() for name, path in listed}
-    files[_record_name(index)] = completion_record(index, listed)
-    return files
-
-
-def commit_files(out: Path | FsPath, index: int, files: dict[str, bytes], fmt: str) -> None:
-    """Commit sample ``index``'s returned ``files`` (path in the dataset -> bytes, its
-    completion record among them, as :class:`SampleTask` returns them) into ``out``: what the
-    driver does for each sample of the Ray engine or a URL output."""
-    commit_sample(out, index, files, folder=sample_dir(Path(), fmt, index).as_posix(),
-                  record=_record_name(index),
-                  commit_local=lambda t, root: _commit(t, root, index, fmt))
-
-
-def commit_returned(tmp: Path, out: Path | FsPath, index: int, fmt: str) -> None:
-    """What a sample costs the driver on the Ray engine or a URL output: the files of ``tmp``
-    (a folder :func:`produce_sample` wrote) returned as bytes and committed into ``out``
-    (``stereoforge bench dataset`` times it)."""
-    commit_files(out, index, _returned_files(tmp, index, fmt), fmt)
-
-
-class SampleTask:
-    """Picklable per-sample job (see :mod:`synth.dataset.engine`).
-
-    With ``out`` a local folder the worker writes and commits the sample itself and returns its
-    record. With ``out=None`` it writes nothing where the driver writes: it renders into a
-    temporary folder of its own machine and returns ``(record, files)``, ``files`` mapping each
-    path in the dataset (the completion record included) to its bytes, for the driver to
-    :func:`~synth.dataset.storage.commit_sample` (Ray workers, URL outputs: no shared
-    filesystem assumed).
-    """
-
-    preload = ("synth.pair",)  # imported once by the engine's fork server for every worker
-
-    def __init__(self, config: DatasetConfig, out: Path | None, fmt: str, backend: str) -> None:
-        self.config_dict = config.to_dict()
-        self.source = config.source
-        self.out, self.fmt, self.backend = None if out is None else Path(out), fmt, backend
-        self.width, self.height = config.rig.width, config.rig.height
-        self._config: DatasetConfig | None = config
-
-    def __getstate__(self) -> dict:
-        return {**self.__dict__, "_config": None}
-
-    @property
-    def config(self) -> DatasetConfig:
-        if self._config is None:
-            self._config = config_from_dict(self.config_dict, source=self.source)
-        return self._config
-
-    def __call__(self, index: int, renderer: Any) -> dict | tuple[dict, dict[str, bytes]]:
-        tmp = (Path(tempfile.mkdtemp(prefix=f"stereoforge-{index:06d}-")) if self.out is None
-               else self.out / f".{index:06d}.tmp-{os.getpid()}")
-        try:
-            shutil.rmtree(tmp, ignore_errors=True)
-            record = produce_sample(self.config, index, renderer, tmp, self.fmt)
-            if self.out is None:
-                files = _returned_files(tmp, index, self.fmt)
-                shutil.rmtree(tmp, ignore_errors=True)
-                return record, files
-            done = completion_record(index, _dataset_files(tmp, index, self.fmt))
-            _commit(tmp, self.out, index, self.fmt)
-            _write_record(self.out, index, done)
-            return record
-        except BaseException as exc:
-            shutil.rmtree(tmp, ignore_errors=True)
-            if isinstance(exc, Exception) and not isinstance(exc, SampleError):
-                seed = sample_seed(self.config.seed, index)
-                raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
-            raise
 
 
 # --------------------------------------------------------------------------- manifest
@@ -390,7 +130,7 @@ def _open_dataset(out: Path, config: DatasetConfig, fmt: str, shard_size: int | 
     if not path.is_file():
         others = sorted(p.name for p in out.iterdir() if p.name != ".lock")
         if not others:  # drivers creating it at once (object stores) write the same bytes
-            write_bytes(path, _json_bytes(header))
+            write_bytes(path, json_bytes(header))
         elif not path.is_file():  # (unless another driver of this dataset just wrote it)
             raise DatasetError(f"{out} is not empty ({', '.join(others[:5])}"
                                f"{', ...' if len(others) > 5 else ''}) and holds no dataset.json; "

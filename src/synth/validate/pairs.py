@@ -79,7 +79,7 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
     from synth.dataset.config import config_from_dict
     from synth.dataset.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
-    from synth.dataset.run import render_draw
+    from synth.dataset.sample import render_draw
     from synth.photometric import apply_photometric
     from synth.texture_control import match_edge_density
 

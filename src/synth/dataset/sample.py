@@ -1,0 +1,213 @@
+"""One sample of a dataset: drawn, rendered, degraded, measured and written; the per-sample task.
+
+:func:`produce_sample` turns sample ``index`` of a configuration into its files in a folder
+(its bytes depend only on the configuration and ``index``); :class:`SampleTask` is the picklable
+job the engines (:mod:`synth.dataset.engine`) run on each worker, committing the sample
+(:mod:`synth.dataset.commit`) or returning its bytes to the driver.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from matcher.io import atomic_write_bytes
+from stereoforge.errors import StereoforgeError
+from synth._json import json_bytes
+from synth.dataset.commit import commit_local, dataset_files, returned_files, write_record
+from synth.dataset.config import DatasetConfig, config_from_dict
+from synth.dataset.integrity import completion_record
+from synth.dataset.sampling import (
+    STREAM_EXPOSURE_NOISE,
+    STREAM_LIGHTING_NOISE,
+    STREAM_PHOTOMETRIC,
+    STREAM_TEXTURELESS,
+    draw_sample,
+    effective_frequency_px,
+    sample_seed,
+    stream,
+)
+from synth.export import write_pair
+from synth.photometric import apply_photometric
+from synth.texture_control import edge_density, match_edge_density
+
+__all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw"]
+
+
+class SampleError(StereoforgeError, RuntimeError):
+    """Rendering or writing one sample failed; ``index`` and ``seed`` reproduce it."""
+
+    def __init__(self, index: int, seed: int, cause: str) -> None:
+        super().__init__(f"sample {index} (seed {seed}) failed: {cause}; reproduce it alone with "
+                         f"render_from_manifest(dataset_dir, {index}, out=...) or "
+                         f"`stereoforge render --from-manifest DATASET_DIR {index} --out DIR`")
+        self.index, self.seed, self.cause = index, seed, cause
+
+    def __reduce__(self) -> tuple:  # picklable across processes
+        return (SampleError, (self.index, self.seed, self.cause))
+
+
+def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
+                 ) -> tuple[Any, float]:
+    """The scene with objects made constant toward ``textureless_area`` (stream 5 orders them),
+    and its measured textureless fraction (:mod:`synth.textureless`)."""
+    from synth.textureless import match_textureless, object_coverage
+
+    rig = config.rig
+    coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)
+    return match_textureless(scene, float(draw.params["scene.textureless_area"]), coverage,
+                             rig.width * rig.height, stream(draw.seed, STREAM_TEXTURELESS))
+
+
+def _r(value: float | None) -> float | None:
+    return None if value is None else round(float(value), 6)
+
+
+# --------------------------------------------------------------------------- one sample
+def render_draw(config: DatasetConfig, draw: Any, scene: Any, renderer: Any) -> Any:
+    """The exact pair of a drawn sample: ``scene`` (the draw's, possibly changed after drawing)
+    through the config's rig, with the draw's ``im1E`` exposure and ``im1L`` relighting when it
+    asks for them. The one place a dataset sample (and a validate pair) is rendered."""
+    from synth.pair import render_pair
+
+    lighting = None
+    if draw.relight is not None:
+        lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
+    return render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
+                       lighting=lighting)
+
+
+def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path, fmt: str, *,
+             timings: dict[str, float] | None = None) -> dict:
+    """Render sample ``index`` and write all its files into ``dest``; return its record.
+
+    ``timings``, if given, accumulates the seconds spent per stage (draw, search, render,
+    stats, photometric, write): wall time under ``stage`` and CPU time of the process (all
+    threads, e.g. llvmpipe's) under ``stage + "_cpu"``.
+    """
+    clock = [time.perf_counter(), time.process_time()]
+
+    def lap(stage: str) -> None:
+        now = [time.perf_counter(), time.process_time()]
+        if timings is not None:
+            timings[stage] = timings.get(stage, 0.0) + now[0] - clock[0]
+            timings[f"{stage}_cpu"] = timings.get(f"{stage}_cpu", 0.0) + now[1] - clock[1]
+        clock[:] = now
+
+    draw = draw_sample(config, index)
+    scene, search = draw.scene, None
+    lap("draw")
+    if draw.edge_density is not None:
+        search = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer)
+        scene = search.scene
+    textureless = None
+    if "scene.textureless_area" in draw.params:
+        scene, textureless = _textureless(scene, config, draw, renderer)
+    lap("search")
+    pair = render_draw(config, draw, scene, renderer)
+    lap("render")
+    out = apply_photometric(pair.left, pair.right, draw.photometric,
+                            rng=stream(draw.seed, STREAM_PHOTOMETRIC))
+    variants = {}  # the right-view variants under the same sensor model, their own noise
+    for name, noise in (("right_exposure", STREAM_EXPOSURE_NOISE),
+                        ("right_lighting", STREAM_LIGHTING_NOISE)):
+        if getattr(pair, name) is not None:
+            variants[name] = apply_photometric(pair.left, getattr(pair, name), draw.photometric,
+                                               rng=stream(draw.seed, noise)).right
+    lap("photometric")
+    if search is not None and np.array_equal(search.left, pair.left):
+        rho = search.edge_density  # the search measured this very image: skip a second Canny
+    else:
+        rho = edge_density(pair.left)
+    degraded = dataclasses.replace(pair, left=out.left, right=out.right, **variants)
+    finite = np.isfinite(pair.disp_left)
+    has_finite = bool(finite.any())
+    mask_size = pair.mask_left.size
+    stats = {
+        "edge_density": _r(rho),
+        "edge_search_probes": None if search is None else search.probes,
+        "edge_search_converged": None if search is None else search.converged,
+        "texture_frequency_px": _r(effective_frequency_px(scene, fx=config.rig.fx)),
+        "disp_min": _r(np.min(pair.disp_left, where=finite, initial=np.inf)) if has_finite
+        else None,
+        "disp_max": _r(np.max(pair.disp_left, where=finite, initial=-np.inf)) if has_finite
+        else None,
+        # = np.mean(mask == code): the same float (an exact count over the size), 6x faster
+        "occluded_fraction": _r(np.count_nonzero(pair.mask_left == 128) / mask_size),
+        "invalid_fraction": _r(np.count_nonzero(pair.mask_left == 0) / mask_size),
+    }
+    if textureless is not None:  # only then: other datasets keep their manifests' bytes
+        stats["textureless_fraction"] = _r(textureless)
+    lap("stats")
+    record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
+              "params": dict(draw.params), "stats": stats}
+    dest.mkdir(parents=True, exist_ok=True)
+    write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
+               fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
+               preview=config.preview, fsync=False)
+    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.ground_truth)
+        from synth.ground_truth import render_ground_truth, write_ground_truth
+
+        write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
+                                                     renderer=renderer), fsync=False)
+    atomic_write_bytes(dest / "sample.json", json_bytes(record), fsync=False)
+    lap("write")
+    return record
+
+
+class SampleTask:
+    """Picklable per-sample job (see :mod:`synth.dataset.engine`).
+
+    With ``out`` a local folder the worker writes and commits the sample itself and returns its
+    record. With ``out=None`` it writes nothing where the driver writes: it renders into a
+    temporary folder of its own machine and returns ``(record, files)``, ``files`` mapping each
+    path in the dataset (the completion record included) to its bytes, for the driver to
+    :func:`~synth.dataset.storage.commit_sample` (Ray workers, URL outputs: no shared
+    filesystem assumed).
+    """
+
+    preload = ("synth.pair",)  # imported once by the engine's fork server for every worker
+
+    def __init__(self, config: DatasetConfig, out: Path | None, fmt: str, backend: str) -> None:
+        self.config_dict = config.to_dict()
+        self.source = config.source
+        self.out, self.fmt, self.backend = None if out is None else Path(out), fmt, backend
+        self.width, self.height = config.rig.width, config.rig.height
+        self._config: DatasetConfig | None = config
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_config": None}
+
+    @property
+    def config(self) -> DatasetConfig:
+        if self._config is None:
+            self._config = config_from_dict(self.config_dict, source=self.source)
+        return self._config
+
+    def __call__(self, index: int, renderer: Any) -> dict | tuple[dict, dict[str, bytes]]:
+        tmp = (Path(tempfile.mkdtemp(prefix=f"stereoforge-{index:06d}-")) if self.out is None
+               else self.out / f".{index:06d}.tmp-{os.getpid()}")
+        try:
+            shutil.rmtree(tmp, ignore_errors=True)
+            record = produce_sample(self.config, index, renderer, tmp, self.fmt)
+            if self.out is None:
+                files = returned_files(tmp, index, self.fmt)
+                shutil.rmtree(tmp, ignore_errors=True)
+                return record, files
+            done = completion_record(index, dataset_files(tmp, index, self.fmt))
+            commit_local(tmp, self.out, index, self.fmt)
+            write_record(self.out, index, done)
+            return record
+        except BaseException as exc:
+            shutil.rmtree(tmp, ignore_errors=True)
+            if isinstance(exc, Exception) and not isinstance(exc, SampleError):
+                seed = sample_seed(self.config.seed, index)
+                raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc
+            raise
