@@ -249,7 +249,7 @@ MUTANTS += (
     ),
     Mutant(
         "scene round trip drops the pose",
-        "src/scenes/spec.py",
+        "src/scenes/serialize.py",
         (('kw["pose"] = _build(Pose, _take(kw.get("pose", {}), Pose, f"{where}.pose"), f"{where}.pose")',
           'kw["pose"] = _build(Pose, {}, f"{where}.pose")'),),
         "scene_from_dict rebuilds every object at the default pose",
