@@ -29,7 +29,8 @@ order sort). Engines:
   sample goes back to the queue, so no sample is lost (at most ``4 * workers`` losses per run).
   On the loopback (a local Ray, or an ``address`` on ``127.*``/``localhost``) the driver's node
   IP must stay 127.0.0.1 (see :func:`synth.dataset.ray_driver.import_ray`). The driver side of
-  Ray (its import, the actor scheduling and retries) is :mod:`synth.dataset.ray_driver`.
+  Ray (its import, joining the cluster, the actor scheduling and retries) is
+  :mod:`synth.dataset.ray_driver`.
 
 The first failing task stops the run: pending tasks are cancelled and its exception is raised.
 
@@ -54,6 +55,8 @@ from concurrent.futures import (
     wait,
 )
 from typing import Any, Protocol
+
+from synth.dataset.ray_driver import RAY_CONNECT_TIMEOUT_S, check_ray_address
 
 __all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_ray_address", "configure_worker",
            "die_with_parent", "renderer_threads", "run_tasks", "ray_available",
@@ -324,77 +327,13 @@ class _RayWorker:
         return index, self.task(index, self.renderer)
 
 
-#: Seconds a Ray cluster address may take to answer before the run gives up.
-RAY_CONNECT_TIMEOUT_S = 30.0
-
-
-def check_ray_address(address: str, *, timeout: float = RAY_CONNECT_TIMEOUT_S) -> None:
-    """Check that the Ray cluster at ``address`` answers within ``timeout`` s.
-
-    ``address`` is ``HOST:PORT`` (the head's GCS), or ``auto``/``ray://...``, which Ray resolves
-    itself (they are not checked here). An address that does not answer raises
-    :class:`~stereoforge.errors.BackendError` naming it, instead of Ray waiting for ever.
-
-    Examples
-    --------
-    >>> check_ray_address("127.0.0.1:1", timeout=2)
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.BackendError: engine='ray': no Ray cluster answers at 127.0.0.1:1 ...
-    """
-    import socket
-
-    from stereoforge.errors import BackendError
-
-    if address == "auto" or "://" in address:
-        return
-    host, sep, port = address.rpartition(":")
-    if not sep or not port.isdigit() or not host:
-        raise ValueError(f"address: expected HOST:PORT of a Ray head (e.g. 127.0.0.1:6379), "
-                         f"'auto' or a ray:// URL, got {address!r}")
-    host = host.strip("[]")
-    try:
-        with socket.create_connection((host, int(port)), timeout=timeout):
-            pass
-    except OSError as exc:
-        raise BackendError(
-            f"engine='ray': no Ray cluster answers at {address} ({exc.strerror or exc} within "
-            f"{timeout:g} s); start one (ray start --head --node-ip-address=127.0.0.1) or fix "
-            "--address") from None
-
-
 def _run_ray(task: Task, indices: Sequence[int], workers: int,
-             address: str | None, timeout: float = RAY_CONNECT_TIMEOUT_S
-             ) -> Iterator[tuple[int, dict]]:
-    from synth.dataset.ray_driver import import_ray, ray_results
+             address: str | None) -> Iterator[tuple[int, dict]]:
+    from synth.dataset.ray_driver import ray_connection, ray_results
 
-    ray = import_ray(address)
-    started = not ray.is_initialized()
-    if started:
-        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
-        if address is None:
-            # a new local Ray of our own (not whatever cluster runs on this machine), on the
-            # loopback only (never the machine's interface address)
-            kwargs.update(num_cpus=workers, _node_ip_address="127.0.0.1")
-        else:
-            check_ray_address(address, timeout=timeout)
-        try:
-            ray.init(address=address or "local", **kwargs)
-        except ConnectionError as exc:  # the port answered, Ray's handshake did not
-            from stereoforge.errors import BackendError
-
-            raise BackendError(
-                f"engine='ray': {exc}. If the head was started with token authentication (Ray "
-                "enables it when ~/.ray/auth_token exists), set RAY_AUTH_MODE=token (and the "
-                "token: ~/.ray/auth_token or RAY_AUTH_TOKEN) for this command; else check that "
-                "--address is the head's GCS port and that both run the same Ray version"
-            ) from None
-    try:
+    with ray_connection(address, workers=workers) as ray:
         actor_cls = ray.remote(num_cpus=1, max_restarts=0)(_RayWorker)
         yield from ray_results(ray, actor_cls, task, indices, workers)
-    finally:
-        if started:
-            ray.shutdown()
 
 
 # --------------------------------------------------------------------------- entry point

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import re
 import time
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,12 +48,13 @@ from synth._json import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
 from synth.dataset.commit import commit_files, commit_returned
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
-from synth.dataset.engine import ENGINES, check_ray_address, run_tasks
+from synth.dataset.engine import ENGINES, run_tasks
 from synth.dataset.integrity import sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
                                   sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.parts import check_indices, is_part, lock_run
+from synth.dataset.ray_driver import ray_connection
 from synth.dataset.sample import SampleError, SampleTask, produce_sample, render_draw
 from synth.dataset.sampling import sample_seed
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
@@ -193,7 +195,10 @@ def run_dataset(
         Processes (``engine="local"``) or Ray actors (``engine="ray"``), one renderer each.
     engine : {"local", "ray"}
     address : str, optional
-        Ray cluster address; default a local Ray with ``num_cpus=workers``.
+        Ray cluster address; default a local Ray with ``num_cpus=workers``. The cluster is
+        joined before ``out`` is made or opened: an address that does not answer, or fails
+        Ray's handshake, raises :class:`~stereoforge.errors.BackendError` and leaves no folder
+        (and an existing dataset as it was).
     fmt : {"middlebury", "kitti", "webdataset"}
         ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
     progress : bool
@@ -221,6 +226,9 @@ def run_dataset(
     DatasetError
         ``out`` holds another dataset, other files, or another run is writing it (a whole run,
         or a part whose ``indices`` overlap).
+    BackendError
+        ``engine="ray"``: the cluster cannot be reached or joined, or no worker could start
+        (:data:`synth.dataset.ray_driver.RAY_STALL_TIMEOUT_S`); the samples finished stay.
     SampleError
         A sample failed (its index and seed are in the message); the samples completed before
         stay, and the manifest lists them.
@@ -261,14 +269,17 @@ def run_dataset(
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}")
-    if engine == "ray" and address is not None:
-        check_ray_address(address)  # an unreachable cluster fails before the folder is made
     t0 = time.perf_counter()
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out} exists and is not a directory; choose another output")
-    out.mkdir(parents=True, exist_ok=True)
-    lock = lock_run(out, indices, count)
-    try:
+    with ExitStack() as held:
+        if engine == "ray" and address is not None:
+            # joined before the folder is made: an address that does not answer, or fails Ray's
+            # handshake, leaves no folder (and an existing dataset untouched)
+            held.enter_context(ray_connection(address, workers=workers))
+        out.mkdir(parents=True, exist_ok=True)
+        lock = lock_run(out, indices, count)
+        held.callback(lock.close)
         with lock.header():
             _open_dataset(out, cfg, fmt, shard_size, disp_encoding)
         for stale in out.iterdir():  # a part removes its own only: another's may be in use
@@ -310,8 +321,6 @@ def run_dataset(
             bar.close()
             if not part:  # a part leaves the manifests to a whole run (synth.dataset.parts)
                 write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
-    finally:
-        lock.close()
     return DatasetRun(out=out, count=count, rendered=len(todo), skipped=len(indices) - len(todo),
                       seconds=time.perf_counter() - t0, indices=indices)
 
