@@ -7,6 +7,7 @@ and only the driver writes (``memory://`` is visible to the driver process alone
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import re
@@ -16,6 +17,7 @@ import threading
 import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from synth.dataset.engine import ray_available
@@ -48,6 +50,31 @@ def cluster(require_or_skip):
         yield c
     finally:
         c.shutdown()
+
+
+def _node_workers(node) -> list:
+    """The processes under ``node``'s raylet (its workers, the actor among them)."""
+    import psutil
+    from ray._private import ray_constants
+
+    raylet = node.all_processes[ray_constants.PROCESS_TYPE_RAYLET][0].process.pid
+    return psutil.Process(raylet).children(recursive=True)
+
+
+def _actor_ready_on(node) -> bool:
+    """Whether a started worker actor runs on ``node``: a process under its raylet titled
+    ``ray::_RayWorker`` (idle) or ``ray::_RayWorker.run`` (Ray names its actor processes so;
+    ``ray::_RayWorker.__init__`` while the renderer opens)."""
+    import psutil
+
+    for child in _node_workers(node):
+        try:
+            title = " ".join(child.cmdline())
+        except psutil.Error:
+            continue
+        if title.startswith("ray::_RayWorker") and "__init__" not in title:
+            return True
+    return False
 
 
 @pytest.fixture(scope="module")
@@ -134,15 +161,25 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
             errors.append(exc)
 
     thread = threading.Thread(target=drive)
+    worker_node = cluster.list_all_nodes()[1]
     try:
         thread.start()
         deadline = time.monotonic() + 180
         done = []
-        while len(done) < 2 and time.monotonic() < deadline and thread.is_alive():
+        # mid-run: samples committed, and the worker node's actor started (else the head's actor
+        # can finish everything before that one is ready, and its loss is never seen)
+        while ((len(done) < 2 or not _actor_ready_on(worker_node))
+               and time.monotonic() < deadline and thread.is_alive()):
             done = list(out.glob("records/" + "[0-9]" * 6 + ".json"))
             time.sleep(0.01)
-        worker_node = cluster.list_all_nodes()[1]
+        # the node dies whole: its raylet and, at the same moment, its processes (Ray's own
+        # removal kills the raylet only, and an actor outlives it for a while, serving the
+        # driver directly: a short run would end before anything is lost)
+        workers = _node_workers(worker_node)
         cluster.remove_node(worker_node, allow_graceful=False)
+        for proc in workers:
+            with contextlib.suppress(psutil.Error):
+                proc.kill()
         removed_at = len(done)
         thread.join(timeout=240)
     finally:
