@@ -117,7 +117,8 @@ def bench_dataset(
         ``workers / workers[0]`` times the first one's), ``minutes_for_35454`` (the steady rate
         extrapolated to FlyingThings3D's 35,454 training pairs), ``driver_cpu_ms_per_pair``
         (CPU time of this process per pair at steady state: receiving and committing returned
-        samples on Ray, next to nothing on the local engine), ``engine`` and ``cold`` (True for
+        samples on Ray; next to nothing for local worker processes; the whole sample for one
+        local worker, which runs in this process), ``engine`` and ``cold`` (True for
         the first multi-worker run of this call; see below).
 
     The first multi-worker run of a process also starts the engine's fork server (imports and
