@@ -50,6 +50,17 @@ def test_arguments_are_checked():
     assert list(run_tasks(_Square(), [], workers=4)) == []
 
 
+
+def test_run_dataset_checks_the_engine_arguments_before_making_the_folder(tmp_path):
+    from synth.dataset.run import run_dataset
+
+    for kwargs, match in [({"workers": 0}, "workers must be"), ({"engine": "dask"}, "engine"),
+                          ({"address": "127.0.0.1:1"}, "applies to engine='ray' only")]:
+        with pytest.raises(ValueError, match=match):
+            run_dataset("planes", tmp_path / "out", count=1, progress=False, **kwargs)
+        assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.gl
 def test_local_engine_runs_every_index_once(renderer):
     out = dict(run_tasks(_Square(), [3, 1, 2], workers=1))

@@ -58,9 +58,9 @@ from typing import Any, Protocol
 
 from synth.dataset.ray_driver import RAY_CONNECT_TIMEOUT_S, check_ray_address
 
-__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_ray_address", "configure_worker",
-           "die_with_parent", "renderer_threads", "run_tasks", "ray_available",
-           "start_worker_server"]
+__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_engine", "check_ray_address",
+           "configure_worker", "die_with_parent", "renderer_threads", "run_tasks",
+           "ray_available", "start_worker_server"]
 
 ENGINES = ("local", "ray")
 
@@ -337,6 +337,18 @@ def _run_ray(task: Task, indices: Sequence[int], workers: int,
 
 
 # --------------------------------------------------------------------------- entry point
+def check_engine(engine: str, *, workers: int, address: str | None) -> None:
+    """Raise ``ValueError`` on an unknown ``engine``, ``workers`` below 1, or an ``address``
+    without ``engine="ray"`` (checked by :func:`run_tasks`, and by callers before any work)."""
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if address is not None and engine != "ray":
+        raise ValueError(f"address={address!r} applies to engine='ray' only; drop it or pass "
+                         "engine='ray'")
+
+
 def run_tasks(task: Task, indices: Sequence[int], *, workers: int = 1, engine: str = "local",
               address: str | None = None) -> Iterator[tuple[int, dict]]:
     """Run ``task`` over ``indices``; yield ``(index, result)`` as each finishes.
@@ -364,13 +376,7 @@ def run_tasks(task: Task, indices: Sequence[int], *, workers: int = 1, engine: s
     ...
     ValueError: engine must be one of local, ray, got 'dask'
     """
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
-    if address is not None and engine != "ray":
-        raise ValueError(f"address={address!r} applies to engine='ray' only; drop it or pass "
-                         "engine='ray'")
+    check_engine(engine, workers=workers, address=address)
     indices = list(indices)
     if not indices:
         return iter(())

@@ -48,7 +48,7 @@ from synth._json import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
 from synth.dataset.commit import commit_files, commit_returned
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
-from synth.dataset.engine import ENGINES, run_tasks
+from synth.dataset.engine import check_engine, run_tasks
 from synth.dataset.integrity import sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
                                   sample_parent, write_scene_list)
@@ -265,10 +265,7 @@ def run_dataset(
     if shard_size is not None and not is_local(out):
         raise ParameterError(f"{out}: --format webdataset packs its shards in a local folder; "
                              "write them to a path (and copy the shards to object storage)")
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    check_engine(engine, workers=workers, address=address)  # before the folder is made
     t0 = time.perf_counter()
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out} exists and is not a directory; choose another output")
