@@ -198,3 +198,19 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
 
     # the first samples' bytes equal the local run's (same seed, same bytes, whatever the node)
     assert first(reference) == first(local_runs) and first(reference)
+
+
+def test_bench_dataset_measures_a_cluster_at_its_address(cluster, config_file):
+    """`bench dataset --engine ray --address`: the actors run on the cluster's two nodes, this
+    process commits what they return (its CPU per pair is the driver's)."""
+    import ray
+
+    from synth.jobs.bench_dataset import bench_dataset
+
+    rows = bench_dataset(configs=(str(config_file),), count=4, workers=(1, 2), engine="ray",
+                         address=cluster.address)
+    assert [(r["engine"], r["workers"], r["pairs"]) for r in rows] == [("ray", 1, 4), ("ray", 2, 4)]
+    assert all(r["steady_pairs_per_s"] > 0 and r["driver_cpu_ms_per_pair"] > 0 for r in rows)
+    assert all(r["pairs_per_cpu_s"] != r["pairs_per_cpu_s"] for r in rows)  # NaN: remote CPUs
+    assert rows[0]["efficiency"] == 1 and rows[1]["efficiency"] > 0
+    assert not ray.is_initialized()  # the bench left the cluster it joined

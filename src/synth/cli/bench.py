@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import LazyChoice, backend_option, engine_option, fail, out_dir_option
+from synth.cli.options import (LazyChoice, address_option, backend_option, engine_option, fail,
+                               out_dir_option)
 
 __all__ = ["bench"]
 
@@ -95,11 +96,14 @@ def bench_paper_cmd(out) -> None:
               help="Render at this size instead of each config's (e.g. 960x540, FlyingThings3D's).")
 @backend_option
 @engine_option
-def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, engine) -> None:
+@address_option
+def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, engine,
+                      address) -> None:
     """Dataset pairs/s with 1 and 2 workers (writing included), scaling, time for 35,454 pairs.
 
-    With --engine ray: a local Ray on 127.0.0.1 per run; the actors return the samples and this
-    process commits them, as on a cluster (the driver_cpu_ms_per_pair column)."""
+    With --engine ray: a local Ray on 127.0.0.1 per run, or the cluster at --address; the actors
+    return the samples and this process commits them, as stereoforge dataset does (the
+    driver_cpu_ms_per_pair column)."""
     from synth.jobs.bench_dataset import bench_dataset
     from synth.jobs.bench_render import parse_sizes, write_table
 
@@ -111,7 +115,8 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, eng
     if len(sizes) != 1:
         fail(ValueError(f"--size takes one WxH, got {size_text!r}"))
     rows = bench_dataset(configs=names, count=count, workers=workers,
-                         backend=backend, progress=True, size=sizes[0], engine=engine)
+                         backend=backend, progress=True, size=sizes[0], engine=engine,
+                         address=address)
     click.echo(write_table(rows, Path(out), "dataset"))
     from synth.jobs.bench_dataset import profile_dataset
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from synth.cli.options import (LazyChoice, backend_option, engine_option, note,
+from synth.cli.options import (LazyChoice, address_option, backend_option, engine_option, note,
                                out_dir_option, workers_option)
 
 __all__ = ["dataset"]
@@ -26,7 +26,7 @@ __all__ = ["dataset"]
                    "--indices to write it (it renders only what is missing).")
 @workers_option
 @engine_option
-@click.option("--address", default=None, help="Ray cluster address (engine ray); default: local.")
+@address_option
 @click.option("--format", "fmt", default="middlebury", show_default=True,
               type=LazyChoice("synth.formats:DATASET_FORMATS"),
               help="Sample folders (middlebury, kitti) or tar shards (webdataset).")

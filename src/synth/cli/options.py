@@ -19,6 +19,7 @@ __all__ = [
     "LazyChoice",
     "backend_option",
     "engine_option",
+    "address_option",
     "fail",
     "format_option",
     "method_option",
@@ -83,6 +84,13 @@ def engine_option(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--engine`` (every dataset engine)."""
     return click.option("--engine", default="local", show_default=True,
                         type=LazyChoice("synth.dataset.engine:ENGINES"))(f)
+
+
+def address_option(f: Callable[..., Any]) -> Callable[..., Any]:
+    """``--address`` (the Ray cluster of ``--engine ray``)."""
+    return click.option("--address", default=None, metavar="HOST:PORT",
+                        help="Ray cluster address (engine ray); default: a local Ray on "
+                             "127.0.0.1.")(f)
 
 
 def workers_option(f: Callable[..., Any]) -> Callable[..., Any]:

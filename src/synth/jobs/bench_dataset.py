@@ -14,6 +14,7 @@ Three measurements, all returning table rows (print them with :func:`synth.jobs.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 import time
@@ -80,6 +81,7 @@ def bench_dataset(
     progress: bool = False,
     size: tuple[int, int] | None = None,
     engine: str = "local",
+    address: str | None = None,
 ) -> list[dict]:
     """Pairs per second of whole dataset runs, per configuration and worker count.
 
@@ -101,6 +103,9 @@ def bench_dataset(
         run (its start-up is in ``seconds``, not in the steady rate); the actors return each
         sample's bytes and this process commits them, as :func:`synth.run_dataset` does on a
         cluster, so ``driver_cpu_ms_per_pair`` shows what one driver spends per pair.
+    address : str, optional
+        ``engine="ray"``: the Ray cluster to measure (``HOST:PORT``), joined once for every run
+        instead of a local Ray.
 
     Returns
     -------
@@ -128,56 +133,67 @@ def bench_dataset(
     multi-worker job before).
     """
     from synth.dataset.config import load_config
-    from synth.dataset.engine import ENGINES, run_tasks
-    from synth.dataset.run import SampleTask, commit_files
+    from synth.dataset.engine import check_engine
 
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
-
+    check_engine(engine, workers=min(workers, default=1), address=address)
     loaded = [load_config(name) for name in configs]  # every error before the first run
     if size is not None:
         loaded = [resized(cfg, *size) for cfg in loaded]
-    rows = []
-    cold = True
-    for cfg in loaded:
-        base_rate = base_steady = None
-        for w in workers:
-            with tempfile.TemporaryDirectory() as tmp:
-                out = Path(tmp)
-                task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, "middlebury",
-                                           backend))
-                cpu0 = _cpu_seconds()
-                t0 = time.perf_counter()
-                done, stamps, driver = [], [], []
-                for index, stamp in run_tasks(task, range(count), workers=w, engine=engine):
-                    files = stamp.pop("files")
-                    if files is not None:  # Ray: the driver writes what the actor returned
-                        commit_files(out, index, files, "middlebury")
-                    done.append(time.perf_counter())
-                    driver.append(time.process_time())
-                    stamps.append(stamp)
-                    if len(done) == count:  # before the engine stops (Ray's processes exit
-                        cpu = _cpu_seconds() - cpu0  # unreaped: their CPU time is lost then)
-                seconds = time.perf_counter() - t0
-            rate = count / seconds
-            steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
-            driver_ms = (1e3 * (driver[-1] - driver[w - 1]) / (count - w) if count > w
-                         else float("nan"))
-            base_rate = rate if base_rate is None else base_rate
-            base_steady = steady if base_steady is None else base_steady
-            scale = w / workers[0]
-            rows.append({"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
-                         "engine": engine, "workers": w, "pairs": count, "seconds": seconds,
-                         "pairs_per_s": rate, "steady_pairs_per_s": steady,
-                         "startup_s": seconds - count / steady,
-                         "pairs_per_cpu_s": count / cpu,
-                         "steady_cpu_ms_per_pair": 1e3 * _steady_cpu_per_pair(stamps),
-                         "driver_cpu_ms_per_pair": driver_ms,
-                         "efficiency": steady / base_steady / scale,
-                         "minutes_for_35454": FLYINGTHINGS3D_PAIRS / steady / 60.0,
-                         "cold": cold if w > 1 and engine == "local" else None})
-            cold = cold and w == 1
+    rows: list[dict] = []
+    with contextlib.ExitStack() as cluster:
+        if address is not None:  # joined once: every run below uses this connection
+            from synth.dataset.ray_driver import ray_connection
+
+            cluster.enter_context(ray_connection(address))
+        for cfg in loaded:
+            for w in workers:
+                # cold: the first multi-worker run of this call also starts the worker server
+                cold = engine == "local" and w > 1 and not any(
+                    r["workers"] > 1 for r in rows)
+                rows.append(_bench_run(cfg, count, w, backend, engine, address, cold))
+            first = rows[-len(workers)]
+            for row in rows[-len(workers):]:
+                row["efficiency"] = (row["steady_pairs_per_s"] / first["steady_pairs_per_s"]
+                                     / (row["workers"] / workers[0]))
     return rows
+
+
+def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str,
+               address: str | None, cold: bool) -> dict:
+    """One run of ``count`` samples of ``cfg`` on ``w`` workers: a row of :func:`bench_dataset`
+    (``efficiency`` is filled in by the caller)."""
+    from synth.dataset.engine import run_tasks
+    from synth.dataset.run import SampleTask, commit_files
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, "middlebury", backend))
+        cpu0 = _cpu_seconds()
+        t0 = time.perf_counter()
+        done, stamps, driver = [], [], []
+        for index, stamp in run_tasks(task, range(count), workers=w, engine=engine,
+                                      address=address):
+            files = stamp.pop("files")
+            if files is not None:  # Ray: the driver writes what the actor returned
+                commit_files(out, index, files, "middlebury")
+            done.append(time.perf_counter())
+            driver.append(time.process_time())
+            stamps.append(stamp)
+            if len(done) == count:  # before the engine stops (Ray's processes exit
+                cpu = _cpu_seconds() - cpu0  # unreaped: their CPU time is lost then)
+        seconds = time.perf_counter() - t0
+    steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
+    driver_ms = 1e3 * (driver[-1] - driver[w - 1]) / (count - w) if count > w else float("nan")
+    return {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
+            "engine": engine, "workers": w, "pairs": count, "seconds": seconds,
+            "pairs_per_s": count / seconds, "steady_pairs_per_s": steady,
+            "startup_s": seconds - count / steady,
+            # a cluster's workers are not this machine's processes
+            "pairs_per_cpu_s": count / cpu if address is None else float("nan"),
+            "steady_cpu_ms_per_pair": 1e3 * _steady_cpu_per_pair(stamps),
+            "driver_cpu_ms_per_pair": driver_ms, "efficiency": float("nan"),
+            "minutes_for_35454": FLYINGTHINGS3D_PAIRS / steady / 60.0,
+            "cold": cold if engine == "local" and w > 1 else None}
 
 
 def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
