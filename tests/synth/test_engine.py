@@ -158,6 +158,22 @@ def _require_ray(require_or_skip) -> None:
                         env="STEREOFORGE_REQUIRE_RAY")
 
 
+def test_a_local_ray_that_cannot_start_leaves_no_new_folder(tmp_path, require_or_skip,
+                                                            monkeypatch):
+    _require_ray(require_or_skip)
+    import ray
+
+    from synth.dataset.run import run_dataset
+
+    def init(*args, **kwargs):
+        raise RuntimeError("Ray could not start its head (simulated)")
+
+    monkeypatch.setattr(ray, "init", init)
+    with pytest.raises(RuntimeError, match="simulated"):
+        run_dataset("planes", tmp_path / "new", count=1, engine="ray", progress=False)
+    assert not (tmp_path / "new").exists()
+
+
 @pytest.mark.gl
 @pytest.mark.slow
 def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_or_skip):

@@ -270,9 +270,11 @@ def run_dataset(
     if out.exists() and not out.is_dir():
         raise DatasetError(f"{out} exists and is not a directory; choose another output")
     with ExitStack() as held:
-        if engine == "ray" and address is not None:
-            # joined before the folder is made: an address that does not answer, or fails Ray's
-            # handshake, leaves no folder (and an existing dataset untouched)
+        if engine == "ray" and (address is not None or not out.exists()):
+            # joined (or, for a new folder, a local Ray started) before the folder is made: an
+            # address that does not answer, a failed handshake or a local Ray that cannot start
+            # leaves no folder (and an existing dataset untouched; for one, a local Ray starts
+            # only when there is work, in run_tasks)
             held.enter_context(ray_connection(address, workers=workers))
         out.mkdir(parents=True, exist_ok=True)
         lock = lock_run(out, indices, count)
