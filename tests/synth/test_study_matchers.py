@@ -81,10 +81,57 @@ def test_eval_dataset_on_a_dataset_folder(tmp_path, renderer):
     assert all(r["bad_0_5"] == "1.0" and r["coverage"] == "0.0" for r in rows if r["pixels"] != "0")
 
 
+@pytest.mark.gl
+def test_eval_dataset_reads_a_kitti_dataset_as_its_middlebury_twin(tmp_path, renderer):
+    """Same config in both layouts: the same pairs, regions and estimates (KITTI's GT is the
+    Middlebury one quantized to 1/256 px); KITTI's default search range comes from its GT."""
+    import math
+
+    import numpy as np
+
+    from matcher.io import load_kitti_2015
+    from synth.dataset import run_dataset
+
+    cfg = tmp_path / "d.toml"
+    cfg.write_text("count = 2\n[rig]\nwidth = 64\nheight = 48\n[scene]\nbase = 'boxes'\n")
+    rows = {}
+    for fmt in ("middlebury", "kitti"):
+        run_dataset(cfg, out=tmp_path / fmt, fmt=fmt, progress=False)
+        for args, key in (([], fmt), (["--max-disp", "16"], f"{fmt}-16")):
+            out = tmp_path / f"eval-{key}"
+            result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path / fmt), "--matcher",
+                                               "ct:5", "--out", str(out), *args])
+            assert result.exit_code == 0, result.output
+            rows[key] = _rows(out / "results.csv")
+    mid, kit = rows["middlebury-16"], rows["kitti-16"]
+    assert [(r["index"], r["region"], r["pixels"]) for r in mid] == \
+        [(r["index"], r["region"], r["pixels"]) for r in kit]
+    assert all(int(r["pixels"]) > 0 for r in mid if r["region"] != "occluded")
+    for a, b in zip(mid, kit):
+        assert (tmp_path / "eval-middlebury-16" / a["estimate"]).read_bytes() == \
+            (tmp_path / "eval-kitti-16" / b["estimate"]).read_bytes()
+        assert abs(float(a["avgerr"]) - float(b["avgerr"])) < 0.01
+    for r in rows["kitti"]:
+        gt = load_kitti_2015(tmp_path / "kitti" / "training", int(r["index"])).disp_left
+        vmax = math.ceil(float(gt[np.isfinite(gt)].max()))
+        assert int(r["max_disparity"]) == min(16 * math.ceil((vmax + 1) / 16), 63)
+
+
+def test_eval_dataset_refuses_shards(tmp_path):
+    (tmp_path / "MiddEval3" / "trainingF" / "000000").mkdir(parents=True)
+    (tmp_path / "MiddEval3" / "trainingF" / "000000" / "sample.json").write_text(
+        '{"index": 0, "seed": 1, "dir": "000000", "params": {}, "stats": {}}')
+    (tmp_path / "dataset.json").write_text('{"format": "webdataset"}')
+    result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path), "--matcher", "ct"])
+    assert result.exit_code == 2 and "is a webdataset dataset" in result.output
+    assert "Traceback" not in result.output
+
+
 def test_eval_dataset_refuses_a_folder_without_samples(tmp_path):
     result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path), "--matcher", "ct"])
     assert result.exit_code == 2
-    assert "no samples (MiddEval3/trainingF/NNNNNN/sample.json)" in result.output
+    assert ("no samples (MiddEval3/trainingF/NNNNNN/sample.json, or "
+            "training/samples/NNNNNN/sample.json)") in result.output
 
 
 def test_study_refuses_a_matcher_that_does_not_resolve(tmp_path):

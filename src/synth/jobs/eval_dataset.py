@@ -1,13 +1,17 @@
 """``stereoforge eval-dataset``: score any matcher on a dataset folder or a study's kept pairs.
 
 The pairs are read through the dataset's manifest (:func:`synth.dataset.manifest.read_manifest`:
-every ``MiddEval3/trainingF/NNNNNN/sample.json``), so a folder of ``stereoforge dataset --format middlebury`` and the
-``pairs/`` folder of ``stereoforge study --keep-pairs`` (or the study folder itself) both work.
-Each sample folder is a MiddEval3 scene (``im0.png``, ``im1.png``, ``disp0GT.pfm``,
-``mask0nocc.png``). Regions: the ``mask_<region>.png`` files where present (validate's pairs),
-else ``all``, ``nonocc`` and ``occluded`` from ``mask0nocc.png``. ``max_disparity`` per sample:
-the option if given, else the sample's ``params.max_disparity`` (a study's), else ``calib.txt``'s
-``ndisp``.
+every ``MiddEval3/trainingF/NNNNNN/sample.json``, or ``training/samples/NNNNNN/sample.json``), so
+a folder of ``stereoforge dataset`` (``--format middlebury`` or ``kitti``, as its
+``dataset.json`` says) and the ``pairs/`` folder of ``stereoforge study --keep-pairs`` (or the
+study folder itself) all work. A Middlebury sample folder is a MiddEval3 scene (``im0.png``,
+``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``); a KITTI sample is frame ``NNNNNN_10`` of
+``training/`` (``image_2``, ``image_3``, ``disp_occ_0``, ``disp_noc_0``: the regions' occluded
+pixels are those with ``disp_occ_0`` but no ``disp_noc_0``). Regions: the ``mask_<region>.png``
+files where present (validate's pairs), else ``all``, ``nonocc`` and ``occluded``.
+``max_disparity`` per sample: the option if given, else the sample's ``params.max_disparity`` (a
+study's), else ``calib.txt``'s ``ndisp`` (Middlebury), else (KITTI) the ground truth's largest
+value + 1 rounded up to a multiple of 16, as the Middlebury writer's ``ndisp``.
 
 Outputs in ``out`` (default ``DIR/eval/<matcher>-<hash8>``): ``NNNNNN.pfm`` estimates and
 ``results.csv`` (:data:`COLUMNS`); the scores are :func:`matcher.regions.region_scores`.
@@ -36,9 +40,53 @@ def _root(folder: Path) -> tuple[Path, list[dict]]:
             records = read_manifest(root)
             if records:
                 return root, records
-    raise DatasetError(f"{folder}: no samples (MiddEval3/trainingF/NNNNNN/sample.json) here or under pairs/; pass a "
-                       "dataset folder (stereoforge dataset --format middlebury) or a study "
-                       "folder made with --keep-pairs")
+    raise DatasetError(f"{folder}: no samples (MiddEval3/trainingF/NNNNNN/sample.json, or "
+                       "training/samples/NNNNNN/sample.json) here or under pairs/; pass a "
+                       "dataset folder (stereoforge dataset) or a study folder made with "
+                       "--keep-pairs")
+
+
+def _format(root: Path) -> str:
+    """The dataset's layout (``dataset.json``'s ``format``; a study's pairs: Middlebury)."""
+    from synth._json import read_json_object
+    from synth.dataset.manifest import MODIFIED_FIX
+
+    header = root / "dataset.json"
+    if not header.is_file():
+        return "middlebury"
+    return str(read_json_object(header, what="dataset header", fix=MODIFIED_FIX).get(
+        "format", "middlebury"))
+
+
+def _load(root: Path, fmt: str, rec: dict) -> tuple:
+    """``(left, right, gt, occlusion mask, default max_disparity (a callable: calib.txt is read
+    only when needed), region mask folder or None)`` of a sample; a missing file is a
+    :exc:`DatasetError` naming it."""
+    import math
+
+    import numpy as np
+
+    from matcher.io import load_kitti_2015, read_calib, read_image, read_pfm
+    from synth.dataset.layout import sample_dir
+    from synth.formats import KITTI_ROOT
+
+    index = rec["index"]
+    try:
+        if fmt == "kitti":
+            s = load_kitti_2015(root / KITTI_ROOT, index)
+            finite = s.disp_left[np.isfinite(s.disp_left)]
+            vmax = math.ceil(float(finite.max())) if finite.size else 0
+            occ = s.mask_left if s.mask_left is not None else np.where(
+                np.isfinite(s.disp_left), 255, 0).astype(np.uint8)
+            return s.left, s.right, s.disp_left, occ, lambda: 16 * math.ceil((vmax + 1) / 16), None
+        sample = sample_dir(root, fmt, index)
+        left, right = read_image(sample / "im0.png"), read_image(sample / "im1.png")
+        gt, occ = read_pfm(sample / "disp0GT.pfm"), read_image(sample / "mask0nocc.png")
+        return left, right, gt, occ, lambda: int(read_calib(sample / "calib.txt")["ndisp"]), sample
+    except FileNotFoundError as exc:
+        raise DatasetError(f"{root}: sample {index}: {exc.filename} is missing; eval-dataset "
+                           f"reads the {fmt} layout's files (see stereoforge dataset "
+                           "--format)") from None
 
 
 def _cell(value: object) -> object:
@@ -53,13 +101,21 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     import hashlib
 
     from matcher.adapters import resolve_matcher
-    from matcher.io import atomic_write_bytes, read_calib, read_image, read_pfm, write_pfm
+    from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
-    from synth.dataset.layout import sample_dir
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
-    root, records = _root(folder)
+    try:
+        root, records = _root(folder)
+        fmt = _format(root)
+        if fmt not in ("middlebury", "kitti"):
+            raise DatasetError(f"{root} is a {fmt} dataset (samples packed in tar shards); "
+                               "eval-dataset reads sample folders: write the dataset with "
+                               "--format middlebury or kitti")
+    except BaseException:
+        m.close()
+        raise
     if out is None:
         slug = "".join(c if c.isalnum() else "_" for c in m.spec)[:40]
         out = folder / "eval" / f"{slug}-{hashlib.sha256(m.spec.encode()).hexdigest()[:8]}"
@@ -70,18 +126,10 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     writer.writerow(COLUMNS)
     try:
         for rec in records:
-            sample = sample_dir(root, "middlebury", rec["index"])
-            try:
-                left, right = read_image(sample / "im0.png"), read_image(sample / "im1.png")
-                gt = read_pfm(sample / "disp0GT.pfm")
-                occ = read_image(sample / "mask0nocc.png")
-            except FileNotFoundError as exc:
-                raise DatasetError(f"{sample}: {exc.filename} is missing; eval-dataset reads "
-                                   "MiddEval3 sample folders (--format middlebury)") from None
-            d = max_disparity or rec["params"].get("max_disparity") \
-                or int(read_calib(sample / "calib.txt")["ndisp"])
+            left, right, gt, occ, default, sample = _load(root, fmt, rec)
+            d = max_disparity or rec["params"].get("max_disparity") or default()
             d = int(min(d, gt.shape[1] - 1))
-            if (sample / "mask_all.png").is_file():
+            if sample is not None and (sample / "mask_all.png").is_file():
                 masks = {n: read_image(sample / f"mask_{n}.png") > 0 for n in REGIONS}
             else:
                 import numpy as np
