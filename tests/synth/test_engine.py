@@ -208,13 +208,17 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
 
 
 _EARLY_SERVER = """
-import json, sys
+import json, sys, time
 sys.path.insert(0, sys.argv[1])
 import psutil
 from synth.dataset.engine import run_tasks, start_worker_server
 
 start_worker_server(["early_task"])  # before this process imports the task's module
-servers = [p.pid for p in psutil.Process().children() if "forkserver" in " ".join(p.cmdline())]
+servers, deadline = [], time.monotonic() + 10  # polled: it may still be exec'ing under load
+while not servers and time.monotonic() < deadline:
+    servers = [p.pid for p in psutil.Process().children()
+               if "forkserver" in " ".join(p.cmdline())]
+    time.sleep(0 if servers else 0.05)
 import early_task
 
 out = dict(run_tasks(early_task.Parent(), range(4), workers=2))
