@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import errno
 import functools
-import json
 import math
 import os
 import re
@@ -31,6 +30,7 @@ from matcher.io import (
 )
 from scenes import SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
+from synth._json import json_bytes
 from synth.formats import FORMATS, KITTI_ROOT
 from synth.pair import StereoPair
 from synth.preview import preview_image
@@ -344,9 +344,7 @@ def write_pair(
         "render": _jsonable(dict(pair.meta)),
     }
     scene_json = out / "scene.json"
-    atomic_write_bytes(
-        scene_json, (json.dumps(record, indent=2, sort_keys=True) + "\n").encode(), fsync=fsync
-    )
+    atomic_write_bytes(scene_json, json_bytes(record), fsync=fsync)
     written.append(scene_json)
     if preview:
         img = preview_image(pair.left, pair.right, pair.disp_left, pair.mask_left)

@@ -22,6 +22,7 @@ import re
 from collections.abc import Iterable
 from pathlib import Path
 
+from synth._json import json_bytes
 from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
                                   STAGING, check_layout, dataset_format, record_path, sample_dir,
                                   sample_parent)
@@ -57,8 +58,7 @@ def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
     """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs."""
     entries = {name: {"bytes": path.stat().st_size, "sha256": sha256(path)}
                for name, path in sorted(files)}
-    return (json.dumps({"files": entries, "index": index}, indent=2, sort_keys=True)
-            + "\n").encode()
+    return json_bytes({"files": entries, "index": index})
 
 
 def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:

@@ -33,7 +33,7 @@ from pathlib import Path
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
-from synth._json import read_json_object
+from synth._json import json_bytes, read_json_object
 from synth.dataset.storage import FsPath, dataset_path, write_bytes
 from synth.formats import KITTI_ROOT
 
@@ -198,7 +198,7 @@ def upgrade_dataset(root: str | Path) -> int:
     write_scene_list(root, fmt, names)
     if header.get("layout") != LAYOUT_VERSION:
         header["layout"] = LAYOUT_VERSION
-        atomic_write_bytes(path, (json.dumps(header, indent=2, sort_keys=True) + "\n").encode())
+        atomic_write_bytes(path, json_bytes(header))
     return moved
 
 
@@ -215,6 +215,5 @@ def _move_record(root: Path, folder: Path, prefix: str) -> None:
         return
     target = record_path(root, int(folder.name))
     target.parent.mkdir(exist_ok=True)
-    atomic_write_bytes(target, (json.dumps(record, indent=2, sort_keys=True) + "\n").encode(),
-                       fsync=False)
+    atomic_write_bytes(target, json_bytes(record), fsync=False)
     old.unlink()

@@ -46,18 +46,6 @@ def _root(folder: Path) -> tuple[Path, list[dict]]:
                        "--keep-pairs")
 
 
-def _format(root: Path) -> str:
-    """The dataset's layout (``dataset.json``'s ``format``; a study's pairs: Middlebury)."""
-    from synth._json import read_json_object
-    from synth.dataset.manifest import MODIFIED_FIX
-
-    header = root / "dataset.json"
-    if not header.is_file():
-        return "middlebury"
-    return str(read_json_object(header, what="dataset header", fix=MODIFIED_FIX).get(
-        "format", "middlebury"))
-
-
 def _load(root: Path, fmt: str, rec: dict) -> tuple:
     """``(left, right, gt, occlusion mask, default max_disparity (a callable: calib.txt is read
     only when needed), region mask folder or None)`` of a sample; a missing file is a
@@ -103,12 +91,14 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.adapters import resolve_matcher
     from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
+    from synth.dataset.layout import dataset_format
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
     try:
         root, records = _root(folder)
-        fmt = _format(root)
+        # a dataset names its layout; a study's pairs are MiddEval3 folders
+        fmt = dataset_format(root) if (root / "dataset.json").is_file() else "middlebury"
         if fmt not in ("middlebury", "kitti"):
             raise DatasetError(f"{root} is a {fmt} dataset (samples packed in tar shards); "
                                "eval-dataset reads sample folders: write the dataset with "
