@@ -41,22 +41,40 @@ __all__ = ["dataset"]
               help="Check the dataset in DIR (a folder or an fsspec URL) instead (sizes and "
                    "SHA-256 of every file against the samples' records; holes up to --count; extra files; the manifest): one "
                    "line per problem, exit 1 if any.")
+@click.option("--compare", "compare", default=None, nargs=2, metavar="A B",
+              help="Compare datasets (or any folders) A and B file by file instead: one line per "
+                   "file that is not byte-identical, saying whether its content differs (pixels, "
+                   "values: how many, how much, where) or only its encoding (e.g. another "
+                   "deflate library); exit 1 if any content differs.")
+@click.option("--bytes", "require_bytes", is_flag=True,
+              help="With --compare: exit 1 also when only encodings differ.")
 @click.option("--upgrade", "upgrade", default=None, metavar="DIR",
               type=click.Path(exists=True, file_okay=False, path_type=Path),
               help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
                    "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
                    "no CONFIG.")
 def dataset(config, out, count, indices, workers, engine, address, fmt, shard_size,
-            disp_encoding, backend, verify_dir, upgrade) -> None:
+            disp_encoding, backend, verify_dir, compare, require_bytes, upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
-    one with --verify DIR, or convert one of the previous layout with --upgrade DIR.
+    one with --verify DIR, compare two with --compare A B, or convert one of the previous layout
+    with --upgrade DIR.
 
     Deterministic (same config, same bytes, whatever the worker count) and resumable: rerun the
     same command after an interruption and it finishes the missing samples.
     """
-    if indices is not None and (upgrade is not None or verify_dir is not None):
+    if indices is not None and (upgrade is not None or verify_dir is not None
+                                or compare is not None):
         raise click.UsageError("--indices chooses the samples a run renders: drop it with "
-                               "--verify and --upgrade (they check or convert the whole dataset)")
+                               "--verify, --compare and --upgrade (they check, compare or "
+                               "convert whole datasets)")
+    if require_bytes and compare is None:
+        raise click.UsageError("--bytes applies to --compare A B only; drop it")
+    if compare is not None:
+        if config is not None or out is not None or verify_dir is not None or upgrade is not None:
+            raise click.UsageError("--compare A B compares two existing datasets: drop CONFIG, "
+                                   "--out, --verify and --upgrade")
+        _compare(*compare, require_bytes=require_bytes)
+        return
     if upgrade is not None:
         if config is not None or out is not None or verify_dir is not None:
             raise click.UsageError("--upgrade DIR converts DIR in place: drop CONFIG, --out and "
@@ -119,3 +137,17 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
         return
     click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
                f"there, {run.seconds:.1f} s")
+
+
+def _compare(a: str, b: str, *, require_bytes: bool) -> None:
+    from synth.dataset.compare import compare_datasets, same_content, summarize
+
+    try:
+        differences = compare_datasets(a, b)
+    except FileNotFoundError as exc:
+        raise click.BadParameter(str(exc), param_hint="--compare") from None
+    for d in differences:
+        click.echo(f"{d.kind:8} {d}")
+    click.echo(f"{a} vs {b}: {summarize(differences)}")
+    if differences and (require_bytes or not same_content(differences)):
+        raise SystemExit(1)

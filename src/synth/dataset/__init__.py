@@ -8,6 +8,7 @@
 - :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
 - :mod:`synth.dataset.parts` — one dataset over several drivers: index ranges and their lock.
 - :mod:`synth.dataset.layout` — where the sample folders live; the upgrade of the previous layout.
+- :mod:`synth.dataset.compare` — two datasets file by file: content or only encoding.
 - :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
 - :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
