@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from synth.dataset.compare import compare_datasets, summarize
 from synth.dataset.config import loads_config
 from synth.dataset.run import (
     DatasetError,
@@ -64,16 +65,17 @@ def _sample(root: Path, i: int, fmt: str = "middlebury") -> Path:
     return root / ("MiddEval3/trainingF" if fmt == "middlebury" else "training/samples") / f"{i:06d}"
 
 
-def _tree(root: Path, *, records: bool = True) -> dict[str, bytes]:
+def _tree(root: Path) -> dict[str, bytes]:
     return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file() and (records or p.relative_to(root).parts[0] != RECORDS)}
+            if p.is_file()}
 
 
-def _assert_same_tree(a: Path, b: Path, *, records: bool = True) -> None:
-    ta, tb = _tree(a, records=records), _tree(b, records=records)
-    assert sorted(ta) == sorted(tb)
-    different = [k for k in ta if ta[k] != tb[k]]
-    assert not different, different
+def _assert_same_tree(a: Path, b: Path) -> None:
+    """The same bytes in every file; a failure says, per file, whether its content differs (how
+    many pixels or values, where) or only its encoding (synth.dataset.compare)."""
+    differences = compare_datasets(a, b)
+    assert not differences, f"{summarize(differences)}:\n" + "\n".join(
+        f"{d.kind}: {d}" for d in differences)
 
 
 @pytest.fixture(scope="module")
