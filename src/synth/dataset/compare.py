@@ -91,8 +91,9 @@ def _array_detail(a: np.ndarray, b: np.ndarray, what: str, unit: str = "") -> st
 
 def _value(a: np.ndarray, index: tuple[int, ...]) -> str:
     v = a[index]
-    return str(v.tolist()) if isinstance(v, np.ndarray) else f"{v.item():g}" if a.dtype.kind == "f" \
-        else str(v.item())
+    if isinstance(v, np.ndarray):  # a pixel's channels, a flow vector
+        return str(v.tolist())
+    return f"{v.item():g}" if a.dtype.kind == "f" else str(v.item())
 
 
 def _png(data: bytes) -> np.ndarray:
@@ -101,6 +102,8 @@ def _png(data: bytes) -> np.ndarray:
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise ValueError("not a PNG OpenCV can decode")
+    if image.ndim == 3:  # OpenCV's BGR(A) to RGB(A), the order people read
+        image = image[..., [2, 1, 0, 3][:image.shape[2]]] if image.shape[2] >= 3 else image
     return image
 
 
