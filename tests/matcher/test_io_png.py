@@ -17,7 +17,7 @@ from PIL import Image
 from matcher.io import png
 from matcher.io.png import DEFLATE, encode_png
 
-DEFLATES = ["zlib", "isal"]
+DEFLATES = ["zlib", "isal", "libdeflate"]
 
 
 def _chunks(data: bytes) -> list[tuple[bytes, bytes]]:
@@ -86,6 +86,25 @@ def test_deflate_default_and_fallback(monkeypatch):
     assert encode_png(img, deflate="isal") == encode_png(img, deflate="zlib")
 
 
+def test_grey_images_are_deflated_by_libdeflate():
+    import deflate
+
+    mask = np.full((32, 48), 255, np.uint8)
+    mask[5:20, 10:14] = 128
+    for grey in (mask, mask.astype(np.uint16) * 257):
+        png_bytes = encode_png(grey)
+        assert png_bytes == encode_png(grey, deflate="libdeflate") != encode_png(grey,
+                                                                                  deflate="zlib")
+        # the IDAT stream is libdeflate's zlib stream of the "Up"-filtered rows, level 2
+        idat = dict(_chunks(png_bytes))[b"IDAT"]
+        rows = grey.astype(">u2" if grey.dtype == np.uint16 else np.uint8).view(np.uint8)
+        filtered = np.hstack([np.full((32, 1), 2, np.uint8),
+                              np.vstack([rows[:1], rows[1:] - rows[:-1]])])
+        assert idat == deflate.zlib_compress(filtered.tobytes(), 2)
+    colour = np.dstack([mask] * 3)
+    assert encode_png(colour) == encode_png(colour, deflate=DEFLATE)
+
+
 @pytest.mark.parametrize(
     ("image", "error", "match"),
     [
@@ -101,5 +120,6 @@ def test_bad_images_are_refused(image, error, match):
 
 
 def test_unknown_deflate_is_refused():
-    with pytest.raises(ValueError, match="deflate: expected 'isal', 'zlib' or None"):
+    with pytest.raises(ValueError, match="deflate: expected one of 'isal', 'libdeflate', "
+                                         "'zlib' or None, got 'zstd'"):
         encode_png(np.zeros((2, 2), np.uint8), deflate="zstd")

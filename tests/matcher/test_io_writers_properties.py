@@ -74,7 +74,7 @@ def test_kitti_round_trip(tmp_path_factory, frame, index):
     hnp.arrays(np.uint8, st.tuples(st.integers(1, 24), st.integers(1, 24))),
     hnp.arrays(np.uint8, st.tuples(st.integers(1, 24), st.integers(1, 24), st.just(3))),
     hnp.arrays(np.uint16, st.tuples(st.integers(1, 16), st.integers(1, 16)))),
-    deflate=st.sampled_from(["zlib", "isal"]))
+    deflate=st.sampled_from(["zlib", "isal", "libdeflate"]))
 def test_png_round_trips_through_opencv(image, deflate):
     import cv2
 

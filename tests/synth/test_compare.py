@@ -30,7 +30,7 @@ def _record(root: Path, names: list[str]) -> bytes:
                                      "sha256": sha256(root / n)} for n in names}, "index": 0})
 
 
-def _dataset(root: Path, *, mask: np.ndarray = _MASK, deflate: str = "isal",
+def _dataset(root: Path, *, mask: np.ndarray = _MASK, deflate: str | None = None,
              disp: np.ndarray = _DISP, meta: dict | None = None) -> Path:
     sample = root / "MiddEval3" / "trainingF" / "000000"
     sample.mkdir(parents=True)
@@ -136,7 +136,7 @@ def _shard(path: Path, members: dict[str, bytes]) -> None:
 
 def test_tar_shards_are_compared_member_by_member(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
-    for root, deflate in ((a, "isal"), (b, "zlib")):
+    for root, deflate in ((a, None), (b, "zlib")):
         root.mkdir()
         _shard(root / "shard-000000.tar", {"000000.mask0nocc.png": encode_png(_MASK, deflate=deflate),
                                            "000000.disp0GT.pfm.gz": gzip.compress(encode_pfm(_DISP))})

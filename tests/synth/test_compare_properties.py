@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from matcher.io import encode_pfm, encode_png
+from matcher.io import DEFLATES, encode_pfm, encode_png
 from synth.dataset.compare import compare_files
 
 _images = st.one_of(

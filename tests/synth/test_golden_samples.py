@@ -3,7 +3,8 @@
 A sample's bytes cover the whole chain: parameter sampling, the scene generator, rendering,
 every photometric model (``flying`` uses all of them), the statistics in ``sample.json`` and
 the writers. ``scene.json`` is hashed without its ``stereoforge_version`` field. PNG bytes depend
-on the deflate library (ISA-L, a dependency), so the pins hold for the project's environment.
+on the deflate libraries (libdeflate for grey images, ISA-L for colour: dependencies, see
+``matcher.io.png``), so the pins hold for the project's environment.
 
 Regenerate after an intended change of the bytes (and say why in the commit)::
 

@@ -35,8 +35,11 @@ from matcher.io.pfm import (
 )
 from matcher.io.png import (
     DEFLATE,
+    DEFLATES,
+    GREY_DEFLATE,
     KITTI_DIVISOR,
     decode_disparity_png,
+    deflate_for,
     encode_png,
     read_disparity,
     read_image,
@@ -46,7 +49,9 @@ from matcher.io.sample import StereoSample, check_stereo_images
 __all__ = [
     "CALIB_KEYS",
     "DEFLATE",
+    "DEFLATES",
     "FloError",
+    "GREY_DEFLATE",
     "GT_NAMES",
     "KITTI_DIVISOR",
     "KITTI_MAX_DISPARITY",
@@ -59,6 +64,7 @@ __all__ = [
     "decode_disparity_png",
     "decode_flo",
     "decode_pfm",
+    "deflate_for",
     "encode_flo",
     "encode_kitti_disparity",
     "encode_pfm",

@@ -18,15 +18,25 @@ writes the same kind of file (8- or 16-bit grey or RGB, no interlace) in one pas
 
 - every row gets PNG's "Up" filter (difference to the row above, computed with numpy), which
   on rendered images compresses as well as libpng's adaptive choice;
-- the filtered rows are deflated by ISA-L (the ``isal`` package, level 1) when it is
-  installed, else by zlib (level 1); ISA-L is ~4x faster than zlib and its files are as small
-  or smaller (measured on 640 x 480 pairs: smooth renders ~270 KB instead of ~500 KB from
-  libpng, noisy ones ~630 KB either way; ~2-4 ms per colour image instead of ~10-17 ms);
+- the filtered rows of a **colour** image are deflated by ISA-L (the ``isal`` package, level 1;
+  zlib level 1 if it is missing): ~4x faster than zlib, and as small or smaller (measured on
+  640 x 480 pairs: smooth renders ~270 KB instead of ~500 KB from libpng, noisy ones ~630 KB
+  either way; ~2-4 ms per colour image instead of ~10-17 ms; at 960 x 540 ~4 ms, against
+  ~11 ms with libdeflate);
+- those of a **grey** image (occlusion, highlight and label masks, KITTI's 16-bit
+  disparities) by libdeflate (the ``deflate`` package, level 2), whose output depends only on
+  its version, not on the CPU or the process: ISA-L's bytes for the same grey image were seen
+  to differ between processes of one machine (three KITTI disparity maps of concurrent runs,
+  the pixels identical; a mask written by the main process and by a worker, its disparities
+  and pixel counts identical); the cause is not known, and it did not happen on another
+  machine. On a 960 x 540 mask
+  libdeflate takes ~0.6 ms (ISA-L ~0.1 ms) and writes ~5 KB instead of ~7 KB;
 - the stream goes into a single ``IDAT`` chunk.
 
 Decoders see ordinary PNGs; the *pixels* never depend on the deflate library, but the file
-bytes do (:data:`DEFLATE` names the one in use), so a dataset made on a machine with ``isal``
-and resumed on one without holds valid PNGs of two byte encodings.
+bytes do (:func:`deflate_for` names the one an image gets), so a dataset made on a machine with
+``isal`` and resumed on one without holds valid colour PNGs of two byte encodings; ``stereoforge
+dataset --compare A B`` tells such encoding differences from differences of content.
 """
 
 from __future__ import annotations
@@ -44,6 +54,8 @@ from matcher._validation import check_positive
 from matcher.io.pfm import read_pfm
 from stereoforge.errors import FormatError, ParameterError
 
+import deflate as _libdeflate
+
 try:  # optional accelerator: pip install isal
     from isal import isal_zlib as _isal_zlib
 except ImportError:  # pragma: no cover - depends on the environment
@@ -51,8 +63,11 @@ except ImportError:  # pragma: no cover - depends on the environment
 
 __all__ = [
     "DEFLATE",
+    "DEFLATES",
+    "GREY_DEFLATE",
     "KITTI_DIVISOR",
     "decode_disparity_png",
+    "deflate_for",
     "encode_png",
     "read_disparity",
     "read_image",
@@ -61,13 +76,19 @@ __all__ = [
 #: The divisor of KITTI's 16-bit disparity PNGs.
 KITTI_DIVISOR = 256.0
 
-#: The deflate implementation :func:`encode_png` uses here: ``"isal"`` or ``"zlib"``.
+#: The deflate implementations :func:`encode_png` accepts.
+DEFLATES = ("isal", "libdeflate", "zlib")
+#: The deflate implementation :func:`encode_png` uses here for colour images: ``"isal"``, or
+#: ``"zlib"`` where the ``isal`` package is missing.
 DEFLATE = "zlib" if _isal_zlib is None else "isal"
+#: The deflate implementation of grey images: libdeflate, whose bytes depend on its version only.
+GREY_DEFLATE = "libdeflate"
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _MAX_PIXELS = 2**30  # OpenCV's CV_IO_MAX_IMAGE_PIXELS default
 _FILTER_UP = 2
 _LEVEL = 1  # ISA-L levels are 0..3, zlib's 0..9: level 1 is "fast" in both
+_LIBDEFLATE_LEVEL = 2  # faster than its level 1 on grey masks and disparities, and smaller
 
 
 def _imread(path: Path, flags: int) -> np.ndarray:
@@ -230,7 +251,23 @@ def read_disparity(path: str | os.PathLike[str], *, divisor: float | None = None
     return decode_disparity_png(raw, divisor=divisor, where=str(path))
 
 
+def deflate_for(image: np.ndarray) -> str:
+    """The deflate implementation :func:`encode_png` gives ``image`` by default: libdeflate
+    (:data:`GREY_DEFLATE`) for a grey ``(H, W)`` image, :data:`DEFLATE` for colour.
+
+    Examples
+    --------
+    >>> deflate_for(np.zeros((2, 2), np.uint8))
+    'libdeflate'
+    >>> deflate_for(np.zeros((2, 2, 3), np.uint8)) == DEFLATE
+    True
+    """
+    return GREY_DEFLATE if np.ndim(image) == 2 else DEFLATE
+
+
 def _deflater(name: str) -> Callable[[memoryview], bytes]:
+    if name == "libdeflate":
+        return lambda data: _libdeflate.zlib_compress(data, _LIBDEFLATE_LEVEL)
     if name == "isal" and _isal_zlib is not None:
         return lambda data: _isal_zlib.compress(data, _LEVEL)
     return lambda data: zlib.compress(data, _LEVEL)
@@ -248,9 +285,10 @@ def encode_png(image: np.ndarray, *, deflate: str | None = None) -> bytes:
     ----------
     image : (H, W) uint8/uint16 array or (H, W, 3) uint8/uint16 array (RGB order)
         Any strides; 16-bit values are stored big-endian as PNG requires.
-    deflate : {"isal", "zlib"}, optional
-        Deflate implementation; default :data:`DEFLATE` (ISA-L if installed, else zlib).
-        ``"isal"`` without the package falls back to zlib.
+    deflate : {"isal", "libdeflate", "zlib"}, optional
+        Deflate implementation; default :func:`deflate_for` the image: libdeflate for grey
+        images (bytes independent of the CPU), :data:`DEFLATE` for colour (ISA-L if installed,
+        else zlib). ``"isal"`` without the package falls back to zlib.
 
     Returns
     -------
@@ -276,15 +314,16 @@ def encode_png(image: np.ndarray, *, deflate: str | None = None) -> bytes:
     if h == 0 or w == 0 or h >= 2**31 or w >= 2**31:
         raise ValueError(f"image: expected a non-empty image with sides < 2**31, got shape "
                          f"{image.shape}")
-    if deflate not in (None, "isal", "zlib"):
-        raise ValueError(f"deflate: expected 'isal', 'zlib' or None, got {deflate!r}")
+    if deflate is not None and deflate not in DEFLATES:
+        raise ValueError(f"deflate: expected one of {', '.join(map(repr, DEFLATES))} or None, "
+                         f"got {deflate!r}")
     dtype = np.dtype(">u2") if image.dtype == np.uint16 else np.dtype(np.uint8)
     rows = np.ascontiguousarray(image, dtype=dtype).reshape(h, -1).view(np.uint8)
     filtered = np.empty((h, rows.shape[1] + 1), np.uint8)
     filtered[:, 0] = _FILTER_UP
     filtered[0, 1:] = rows[0]
     np.subtract(rows[1:], rows[:-1], out=filtered[1:, 1:])  # modulo 256, as PNG defines it
-    idat = _deflater(deflate or DEFLATE)(memoryview(filtered).cast("B"))
+    idat = _deflater(deflate or deflate_for(image))(memoryview(filtered).cast("B"))
     colour_type = 0 if image.ndim == 2 else 2
     ihdr = struct.pack(">IIBBBBB", w, h, 8 * dtype.itemsize, colour_type, 0, 0, 0)
     return b"".join((_SIGNATURE, _chunk(b"IHDR", ihdr), _chunk(b"IDAT", idat),
