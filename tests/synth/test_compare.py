@@ -106,6 +106,12 @@ def test_json_values_versus_formatting(tmp_path):
     (b / "MiddEval3/trainingF/000000/sample.json").write_text('{"seed": 8, "index": 0}')
     sample = next(d for d in compare_datasets(a, b) if d.path.endswith("sample.json"))
     assert (sample.kind, sample.detail) == ("content", "1 JSON value(s) differ: seed")
+    # other JSON values though equal in Python (7.0 for 7, false for 0), and a new empty list
+    for text in ('{"seed": 7.0, "index": 0}', '{"seed": 7, "index": false}',
+                 '{"seed": 7, "index": 0, "x": []}'):
+        (b / "MiddEval3/trainingF/000000/sample.json").write_text(text)
+        sample = next(d for d in compare_datasets(a, b) if d.path.endswith("sample.json"))
+        assert sample.kind == "content", text
 
 
 def test_files_on_one_side_only(tmp_path):

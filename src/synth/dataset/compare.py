@@ -128,14 +128,20 @@ _ARRAYS: dict[str, tuple[Callable[[bytes], np.ndarray], str, str]] = {
 
 
 def _leaves(value: Any, path: tuple = ()) -> Iterable[tuple[tuple, Any]]:
-    if isinstance(value, Mapping):
+    """``(path, value)`` of every scalar and empty container of a parsed JSON document."""
+    if isinstance(value, Mapping) and value:
         for k in value:
             yield from _leaves(value[k], (*path, str(k)))
-    elif isinstance(value, list):
+    elif isinstance(value, list) and value:
         for i, v in enumerate(value):
             yield from _leaves(v, (*path, i))
     else:
         yield path, value
+
+
+def _json_value(value: Any) -> str:
+    """A leaf as JSON text: ``1``, ``1.0`` and ``true`` stay three values ({} and [] two)."""
+    return json.dumps(value)
 
 
 def _hashed_file(doc: Any, path: tuple) -> str | None:
@@ -151,8 +157,9 @@ def _hashed_file(doc: Any, path: tuple) -> str | None:
 
 def _json_detail(a: Any, b: Any) -> tuple[str, str, set[str]]:
     """(kind, detail, files whose hashes differ) of two parsed JSON documents."""
-    la, lb = dict(_leaves(a)), dict(_leaves(b))
-    changed = sorted((k for k in la.keys() | lb.keys() if la.get(k, ...) != lb.get(k, ...)),
+    la = {k: _json_value(v) for k, v in _leaves(a)}
+    lb = {k: _json_value(v) for k, v in _leaves(b)}
+    changed = sorted((k for k in la.keys() | lb.keys() if la.get(k) != lb.get(k)),
                      key=lambda k: tuple(map(str, k)))
     if not changed:
         return "encoding", "the same JSON values, formatted differently", set()
