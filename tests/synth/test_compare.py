@@ -144,8 +144,9 @@ def test_tar_shards_are_compared_member_by_member(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for root, deflate in ((a, None), (b, "zlib")):
         root.mkdir()
-        _shard(root / "shard-000000.tar", {"000000.mask0nocc.png": encode_png(_MASK, deflate=deflate),
-                                           "000000.disp0GT.pfm.gz": gzip.compress(encode_pfm(_DISP))})
+        members = {"000000.mask0nocc.png": encode_png(_MASK, deflate=deflate),
+                   "000000.disp0GT.pfm.gz": gzip.compress(encode_pfm(_DISP))}
+        _shard(root / "shard-000000.tar", members)
         (root / "shards.json").write_bytes(json_bytes({"shards": [
             {"name": "shard-000000.tar", "bytes": (root / "shard-000000.tar").stat().st_size,
              "sha256": sha256(root / "shard-000000.tar")}]}))

@@ -229,17 +229,27 @@ def compare_files(path: str, a: bytes, b: bytes) -> list[Difference]:
                                         f"{len(b)} bytes)")]
 
 
-def _compare_members(prefix: str, a: Mapping[str, bytes], b: Mapping[str, bytes]
-                     ) -> list[Difference]:
-    out = [Difference(f"{prefix}/{name}", "only_a", "only in A") for name in sorted(a.keys() - b.keys())]
-    out += [Difference(f"{prefix}/{name}", "only_b", "only in B") for name in sorted(b.keys() - a.keys())]
+def _compare_maps(a: Mapping[str, Any], b: Mapping[str, Any], read: Callable[[Any], bytes],
+                  prefix: str = "") -> list[Difference]:
+    """Names on one side only, then :func:`compare_files` of each name on both sides (``read``
+    turns an entry into its bytes); a name is ``prefix + name``."""
+    out = [Difference(prefix + n, "only_a", "only in A") for n in sorted(a.keys() - b.keys())]
+    out += [Difference(prefix + n, "only_b", "only in B") for n in sorted(b.keys() - a.keys())]
     for name in sorted(a.keys() & b.keys()):
-        out += compare_files(f"{prefix}/{name}", a[name], b[name])
+        out += compare_files(prefix + name, read(a[name]), read(b[name]))
+    return out
+
+
+def _compare_members(path: str, a: Mapping[str, bytes], b: Mapping[str, bytes]
+                     ) -> list[Difference]:
+    """The members of two versions of the tar file ``path``: one ``"encoding"`` difference for
+    the shard when every differing member differs by encoding only."""
+    out = _compare_maps(a, b, bytes, prefix=f"{path}/")
     if out and all(d.kind == "encoding" for d in out):
-        return [Difference(prefix, "encoding", f"the same members, {len(out)} of them encoded "
-                                               "differently: " + ", ".join(
-                                                   d.path.rsplit("/", 1)[-1] for d in out[:3])
-                                               + (" ..." if len(out) > 3 else ""))]
+        names = [d.path.rsplit("/", 1)[-1] for d in out]
+        shown = ", ".join(names[:3]) + (" ..." if len(names) > 3 else "")
+        return [Difference(path, "encoding", f"the same members, {len(names)} of them encoded "
+                                             f"differently: {shown}")]
     return out
 
 
@@ -278,13 +288,14 @@ def compare_datasets(a: str | Path, b: str | Path) -> list[Difference]:
 
     Examples
     --------
-    >>> import tempfile, pathlib, zlib
+    >>> import tempfile, pathlib
     >>> from matcher.io import encode_png
     >>> a, b = (pathlib.Path(tempfile.mkdtemp()) for _ in range(2))
     >>> image = np.arange(12, dtype=np.uint8).reshape(3, 4)
     >>> _ = (a / "im0.png").write_bytes(encode_png(image, deflate="isal"))
     >>> _ = (b / "im0.png").write_bytes(encode_png(image, deflate="zlib"))
-    >>> _ = (a / "calib.txt").write_text("ndisp=64\\n"); _ = (b / "calib.txt").write_text("ndisp=65\\n")
+    >>> _ = (a / "calib.txt").write_text("ndisp=64\\n")
+    >>> _ = (b / "calib.txt").write_text("ndisp=65\\n")
     >>> for d in compare_datasets(a, b):
     ...     print(d.kind, "|", d)
     content | calib.txt: line 1 differs: b'ndisp=64' vs b'ndisp=65'
@@ -295,13 +306,9 @@ def compare_datasets(a: str | Path, b: str | Path) -> list[Difference]:
     roots = [dataset_path(x) for x in (a, b)]
     for name, root in zip("ab", roots):
         if not root.is_dir():
-            raise FileNotFoundError(f"{name.upper()}: {root} is not a folder; give two dataset folders "
-                                    "(or fsspec URLs) to compare")
-    fa, fb = _files(roots[0]), _files(roots[1])
-    found = [Difference(p, "only_a", "only in A") for p in sorted(fa.keys() - fb.keys())]
-    found += [Difference(p, "only_b", "only in B") for p in sorted(fb.keys() - fa.keys())]
-    for path in sorted(fa.keys() & fb.keys()):
-        found += compare_files(path, fa[path].read_bytes(), fb[path].read_bytes())
+            raise FileNotFoundError(f"{name.upper()}: {root} is not a folder; give two dataset "
+                                    "folders (or fsspec URLs) to compare")
+    found = _compare_maps(_files(roots[0]), _files(roots[1]), lambda p: p.read_bytes())
     return sorted(_explain_hashes(found), key=lambda d: d.path)
 
 
