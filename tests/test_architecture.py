@@ -77,6 +77,27 @@ def test_matcher_and_scenes_import_without_synth_or_gl():
     assert _loaded_after("import matcher, scenes, matcher.io", ("synth", "pyrender", "OpenGL")) == []
 
 
+def test_nothing_but_the_learning_modules_loads_torch():
+    """torch is an optional extra: the library, the CLI and every non-learning job load without it."""
+    statement = ("import matcher, matcher.io, matcher.adapters, scenes, synth, synth.cli, "
+                 "synth.dataset.run, synth.validate.run, synth.jobs.study, synth.jobs.bench_match; "
+                 "matcher.resolve_matcher('ct:9')")
+    assert _loaded_after(statement, ("torch",)) == []
+
+
+def test_without_torch_matcher_works_and_learned_strings_name_the_extra(tmp_path):
+    code = ("import sys; sys.modules['torch'] = None\n"
+            "import numpy as np, matcher\n"
+            "img = np.random.default_rng(0).integers(0, 255, (24, 40), dtype=np.uint8)\n"
+            "matcher.match(img, img, method='ct', window=5, max_disparity=8)\n"
+            "try:\n"
+            f"    matcher.resolve_matcher('learned:{tmp_path}/m.pt')\n"
+            "except matcher.MatcherError as exc:\n"
+            "    print(exc)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert "pip install 'stereoforge[learn]'" in out.stdout
+
+
 def test_importing_synth_and_its_cli_starts_no_gl():
     statement = "import synth, synth.pair, synth.cli, synth.render, synth.dataset.run"
     assert _loaded_after(statement, ("pyrender", "OpenGL")) == []

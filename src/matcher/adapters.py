@@ -17,6 +17,10 @@
   child is killed if this process dies (Linux ``PR_SET_PDEATHSIG``; Linux ties it to the
   *thread* that started the child, so a child started from a thread that then ends is killed
   too, and the next call starts a new one).
+- ``learned:MODEL.pt``: a model file of the reference learned matcher (:mod:`matcher.learned`,
+  made by ``stereoforge train``), run in this process through :func:`matcher.learned.match_learned`
+  with the inference steps its header names; takes RGB or grey uint8 views. Needs PyTorch (the
+  extra ``learn``); the file is read once, here, so a bad file fails before any pair is matched.
 - ``cmd:TEMPLATE``: any program, a shell command line with ``{left}`` and ``{right}`` (PNG
   images the adapter writes), ``{out}`` (a PFM the program writes) or ``{out_png}`` (a KITTI-style
   16-bit PNG, disparity x 256, 0 = no estimate) and ``{max_disparity}``. Every path is
@@ -351,7 +355,7 @@ class Matcher:
         The MATCHER string as given, e.g. ``"ct:9"``, ``"py:mod:f"``.
     name : str
         Short label for tables and plots.
-    kind : {"builtin", "py", "cmd"}
+    kind : {"builtin", "learned", "py", "cmd"}
     timeout : float
         Seconds per pair for ``py:`` and ``cmd:`` matchers.
     """
@@ -372,6 +376,15 @@ class Matcher:
             try:
                 res = match(left, right, method=method, window=window,
                             max_disparity=max_disparity)
+            except Exception as exc:
+                raise MatcherFailure(f"crashed: {type(exc).__name__}: {_one_line(exc)}") from None
+            return res.disparity, time.perf_counter() - start
+        if self.kind == "learned":
+            from matcher.learned import match_learned
+
+            start = time.perf_counter()
+            try:
+                res = match_learned(left, right, self._target[0], max_disparity=max_disparity)
             except Exception as exc:
                 raise MatcherFailure(f"crashed: {type(exc).__name__}: {_one_line(exc)}") from None
             return res.disparity, time.perf_counter() - start
@@ -413,8 +426,8 @@ def _builtin(spec: str, timeout: float) -> Matcher:
     if name not in METHODS:
         raise MatcherError(
             f"matcher {spec!r}: tried a built-in method {name!r}: not one of {', '.join(METHODS)}; "
-            "tried py:MODULE:FUNCTION and cmd:TEMPLATE: the string starts with neither 'py:' nor "
-            "'cmd:'")
+            "tried py:MODULE:FUNCTION, learned:MODEL.pt and cmd:TEMPLATE: the string starts with "
+            "none of 'py:', 'learned:', 'cmd:'")
     window = BUILTIN_WINDOW
     if window_text:
         if not window_text.isdigit() or int(window_text) < 3 or int(window_text) % 2 == 0:
@@ -425,6 +438,24 @@ def _builtin(spec: str, timeout: float) -> Matcher:
         raise MatcherError(f"matcher {spec!r}: OpenCV StereoBM needs a window >= 5; use bm:5")
     return Matcher(spec=spec, name=f"{name}:{window}", kind="builtin", timeout=timeout,
                    _target=(name, window))
+
+
+def _learned(spec: str, timeout: float) -> Matcher:
+    path = spec[len("learned:"):].strip()
+    if not path:
+        raise MatcherError(f"matcher {spec!r}: a learned matcher is learned:MODEL.pt (a file made "
+                           "by stereoforge train)")
+    try:
+        from matcher.learned import ModelError, load_model
+    except ImportError as exc:
+        raise MatcherError(f"matcher {spec!r}: learned matchers need PyTorch ({_one_line(exc)}); "
+                           "install the extra: pip install 'stereoforge[learn]'") from None
+    try:
+        model = load_model(path)
+    except (ModelError, FileNotFoundError) as exc:
+        raise MatcherError(f"matcher {spec!r}: {exc}") from None
+    return Matcher(spec=spec, name=f"learned:{Path(path).stem}", kind="learned", timeout=timeout,
+                   _target=(model,))
 
 
 def resolve_matcher(spec: str, *, timeout: float = 60.0) -> Matcher:
@@ -446,11 +477,11 @@ def resolve_matcher(spec: str, *, timeout: float = 60.0) -> Matcher:
     >>> resolve_matcher("sad")
     Traceback (most recent call last):
     ...
-    matcher.adapters.MatcherError: matcher 'sad': tried a built-in method 'sad': not one of ct, sct, cthw, awct, awsct, bm, sgbm; tried py:MODULE:FUNCTION and cmd:TEMPLATE: the string starts with neither 'py:' nor 'cmd:'
+    matcher.adapters.MatcherError: matcher 'sad': tried a built-in method 'sad': not one of ct, sct, cthw, awct, awsct, bm, sgbm; tried py:MODULE:FUNCTION, learned:MODEL.pt and cmd:TEMPLATE: the string starts with none of 'py:', 'learned:', 'cmd:'
     """
     if not isinstance(spec, str) or not spec.strip():
         raise MatcherError(f"matcher: expected a MATCHER string (NAME[:WINDOW], py:MODULE:FUNCTION, "
-                           f"py:FILE.py:FUNCTION or cmd:TEMPLATE), got {spec!r}")
+                           f"py:FILE.py:FUNCTION, learned:MODEL.pt or cmd:TEMPLATE), got {spec!r}")
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise MatcherError(f"timeout: expected seconds > 0, got {timeout!r}")
     spec = spec.strip()
@@ -464,6 +495,8 @@ def resolve_matcher(spec: str, *, timeout: float = 60.0) -> Matcher:
         label = f"{Path(target).stem if target.endswith('.py') else target}.{func}"
         return Matcher(spec=spec, name=label, kind="py", timeout=float(timeout),
                        _target=(target, func), _child=_Child(target, func))
+    if spec.startswith("learned:"):
+        return _learned(spec, float(timeout))
     if spec.startswith("cmd:"):
         template = spec[4:].strip()
         missing = [p for p in ("left", "right") if "{" + p + "}" not in template]

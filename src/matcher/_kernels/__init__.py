@@ -25,6 +25,7 @@ from matcher._kernels.cthw import (
     path_mode_up_kernel,
 )
 from matcher._kernels.intrinsics import fetch_add, popcount64
+from matcher._kernels.learned import similarity_cost_kernel
 
 __all__ = [
     "COST_SENTINEL",
@@ -44,4 +45,5 @@ __all__ = [
     "popcount64",
     "right_window_map",
     "select_windows_kernel",
+    "similarity_cost_kernel",
 ]

@@ -1,0 +1,49 @@
+"""The reference learned matcher: a siamese patch-feature network after MC-CNN-fast.
+
+The only package of :mod:`matcher` that imports PyTorch (the optional extra ``learn``:
+``pip install 'stereoforge[learn]'``); ``import matcher`` never imports it. What is here:
+
+- :class:`PatchNet` and :class:`Architecture` (``network``): 3 x 3 convolutions, L2-normalised
+  features, cosine similarity as the matching score;
+- :func:`hinge_loss` and :func:`pair_scores` (``loss``): the training objective, one positive
+  and one negative per patch;
+- :func:`load_model` / :func:`save_model` (``model``): weights plus a header;
+- :func:`learned_cost` (``cost``) and :func:`match_learned` (``match``): whole-image inference
+  through :func:`matcher.cost.aggregate_cost` and :func:`matcher.select.winner_takes_all`.
+
+``matcher.resolve_matcher("learned:MODEL.pt")`` wraps a model file as a MATCHER.
+"""
+
+from matcher.learned.cost import COST_SCALE, features, learned_cost
+from matcher.learned.loss import MARGIN, hinge_loss, pair_scores
+from matcher.learned.match import match_learned, resolve_device
+from matcher.learned.model import (
+    INFERENCE_DEFAULTS,
+    LearnedModel,
+    ModelError,
+    load_model,
+    model_bytes,
+    save_model,
+)
+from matcher.learned.network import ARCHITECTURE, Architecture, PatchNet, standardise
+
+__all__ = [
+    "ARCHITECTURE",
+    "Architecture",
+    "COST_SCALE",
+    "INFERENCE_DEFAULTS",
+    "LearnedModel",
+    "MARGIN",
+    "ModelError",
+    "PatchNet",
+    "features",
+    "hinge_loss",
+    "learned_cost",
+    "load_model",
+    "match_learned",
+    "model_bytes",
+    "pair_scores",
+    "resolve_device",
+    "save_model",
+    "standardise",
+]

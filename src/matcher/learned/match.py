@@ -1,0 +1,101 @@
+"""``match_learned``: the learned cost through census's own aggregation and selection steps."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import torch
+
+from matcher.cost import aggregate_cost
+from matcher.learned.cost import COST_SCALE, learned_cost
+from matcher.learned.model import LearnedModel, load_model
+from matcher.result import MatchResult
+from matcher.select import winner_takes_all
+from stereoforge.validation import check_bool, check_int
+
+__all__ = ["match_learned", "resolve_device"]
+
+
+def resolve_device(device: str) -> torch.device:
+    """``"auto"`` (CUDA when torch sees a GPU, else the CPU), ``"cpu"`` or ``"cuda[:N]"``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown name, or ``cuda`` without a GPU.
+    """
+    from stereoforge.errors import ParameterError
+
+    name = str(device).strip().lower()
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cpu":
+        return torch.device("cpu")
+    if name == "cuda" or name.startswith("cuda:"):
+        if not torch.cuda.is_available():
+            raise ParameterError(f"device {device!r}: torch sees no CUDA GPU here; use --device "
+                                 "cpu (or auto)")
+        return torch.device(name)
+    raise ParameterError(f"device: expected auto, cpu or cuda[:N], got {device!r}")
+
+
+def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str | os.PathLike,
+                  *, max_disparity: int, aggregate: int | None = None,
+                  lr_check: bool | None = None, lr_tolerance: int = 1,
+                  subpixel: bool | None = None, device: str = "cpu") -> MatchResult:
+    """Disparity of each left pixel under a learned cost.
+
+    The steps are census's (:func:`matcher.match`): the cost volume
+    (:func:`matcher.learned.cost.learned_cost`), an optional box aggregation
+    (:func:`matcher.cost.aggregate_cost`), winner-takes-all with ties to the smallest ``d``, an
+    optional left-right check and parabola sub-pixel refinement
+    (:func:`matcher.select.winner_takes_all`).
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3) arrays
+        Rectified views, grey or RGB (uint8, other integers or float).
+    model : LearnedModel or path
+        A model (:func:`matcher.learned.load_model`) or its file.
+    max_disparity : int
+        Candidates ``d = 0 .. D - 1``.
+    aggregate, lr_check, subpixel : optional
+        Override the model header's inference defaults (box side, odd >= 3, or 1 for none).
+    lr_tolerance : int
+        Largest accepted ``|d_L - d_R|`` of the left-right check.
+    device : str
+        Where the network runs: ``cpu``, ``cuda[:N]`` or ``auto``.
+
+    Returns
+    -------
+    MatchResult
+        ``method="learned"``, ``window`` = the network's patch side, ``ops=None``; ``params``
+        holds the steps used and the model's path.
+
+    References
+    ----------
+    J. Žbontar and Y. LeCun, "Stereo matching by training a convolutional neural network to
+    compare image patches", JMLR 17(65), 2016.
+    """
+    if not isinstance(model, LearnedModel):
+        model = load_model(model)
+    steps = model.inference
+    agg = steps["aggregate"] if aggregate is None else aggregate
+    agg = check_int(agg, "aggregate", lo=1)
+    if agg != 1 and agg % 2 == 0:
+        from stereoforge.errors import ParameterError
+
+        raise ParameterError(f"aggregate: expected 1 (none) or an odd box side >= 3, got {agg}")
+    lr = check_bool(steps["lr_check"] if lr_check is None else lr_check, "lr_check")
+    sub = check_bool(steps["subpixel"] if subpixel is None else subpixel, "subpixel")
+    cost = learned_cost(model, left, right, max_disparity=max_disparity,
+                        device=resolve_device(device))
+    if agg > 1:
+        cost = aggregate_cost(cost, size=agg)
+    disparity = winner_takes_all(cost, lr_check=lr, lr_tolerance=lr_tolerance, subpixel=sub)
+    params = {"aggregate": agg, "lr_check": lr, "lr_tolerance": lr_tolerance, "subpixel": sub,
+              "cost_scale": COST_SCALE, "model": str(model.path) if model.path else None,
+              "architecture": model.arch.to_dict()}
+    return MatchResult(disparity=disparity, ops=None, method="learned", window=model.arch.patch,
+                       max_disparity=int(max_disparity), params=params)

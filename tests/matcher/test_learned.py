@@ -1,0 +1,198 @@
+"""matcher.learned: the network, the cost volume's conventions, model files and their errors,
+and ``learned:MODEL.pt`` as a MATCHER string."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import numpy as np
+import pytest
+
+if importlib.util.find_spec("torch") is None:  # the extra 'learn'
+    if os.environ.get("STEREOFORGE_REQUIRE_TORCH", "") not in ("", "0"):
+        raise RuntimeError("torch is not installed and STEREOFORGE_REQUIRE_TORCH=1 forbids skipping")
+    pytest.skip("torch is not installed (pip install 'stereoforge[learn]')", allow_module_level=True)
+
+import torch  # noqa: E402
+
+from matcher import resolve_matcher  # noqa: E402
+from matcher.adapters import MatcherError  # noqa: E402
+from matcher.cost import COST_SENTINEL, aggregate_cost  # noqa: E402
+from matcher.learned import (  # noqa: E402
+    COST_SCALE,
+    Architecture,
+    ModelError,
+    PatchNet,
+    features,
+    learned_cost,
+    load_model,
+    match_learned,
+    save_model,
+)
+from matcher.learned.model import LearnedModel  # noqa: E402
+from matcher.select import winner_takes_all  # noqa: E402
+
+
+def _model(seed: int = 0, arch: Architecture = Architecture(channels=8, layers=3)) -> LearnedModel:
+    torch.manual_seed(seed)
+    return LearnedModel(net=PatchNet(arch).eval())
+
+
+def _noise_pair(shift: int, shape=(40, 72), seed=1) -> tuple[np.ndarray, np.ndarray]:
+    """Right view = the left one moved ``shift`` px to the left (a left pixel x matches x - shift)."""
+    rng = np.random.default_rng(seed)
+    wide = rng.integers(0, 256, (shape[0], shape[1] + shift), dtype=np.uint8)
+    return wide[:, :shape[1]].copy(), wide[:, shift:].copy()
+
+
+def test_features_are_unit_vectors_of_the_whole_view():
+    m = _model()
+    img = np.random.default_rng(0).integers(0, 256, (30, 50, 3), dtype=np.uint8)
+    f = features(m, img)
+    assert f.shape == (30, 8, 50) and f.dtype == np.float32
+    np.testing.assert_allclose(np.linalg.norm(f, axis=1), 1.0, rtol=1e-5)
+
+
+def test_features_of_strips_equal_one_pass(monkeypatch):
+    m = _model()
+    img = np.random.default_rng(2).integers(0, 256, (37, 29), dtype=np.uint8)
+    whole = features(m, img)
+    monkeypatch.setattr("matcher.learned.cost.STRIP_PIXELS", 29 * 5)  # strips of 5 rows
+    np.testing.assert_allclose(features(m, img), whole, atol=2e-6)
+
+
+def test_cost_volume_follows_the_census_conventions():
+    m = _model()
+    left, right = _noise_pair(3)
+    cost = learned_cost(m, left, right, max_disparity=6)
+    assert cost.shape == (40, 6, 72) and cost.dtype == np.uint16
+    for d in range(6):
+        assert (cost[:, d, :d] == COST_SENTINEL).all()
+        assert (cost[:, d, d:] <= 2 * COST_SCALE).all()
+    # the true match has the same features away from the borders (up to the views' own
+    # standardisation): a cost of a few units of 16384, the smallest of the pixel's candidates
+    inner = cost[8:-8, :, 12:-8]
+    assert inner[:, 3].max() <= 8 and (inner.argmin(axis=1) == 3).all()
+    assert aggregate_cost(cost, size=3).dtype == np.uint32  # census's steps take it as it is
+
+
+def test_cost_is_the_quantised_cosine():
+    m = _model()
+    left, right = _noise_pair(2, shape=(12, 20))
+    fl, fr = features(m, left), features(m, right)
+    cost = learned_cost(m, left, right, max_disparity=4)
+    y, x, d = 5, 11, 3
+    cos = float(np.dot(fl[y, :, x], fr[y, :, x - d]))
+    assert abs(int(cost[y, d, x]) - round((1 - cos) * COST_SCALE)) <= 1
+
+
+@pytest.mark.parametrize("shift", [0, 4, 9])
+def test_an_untrained_network_finds_an_integer_shift_of_noise(shift):
+    left, right = _noise_pair(shift)
+    res = match_learned(left, right, _model(), max_disparity=12, aggregate=1, subpixel=False)
+    inner = res.disparity[6:-6, 12 + 6:-6]
+    assert res.method == "learned" and res.window == 7 and res.ops is None
+    assert (inner == shift).mean() >= 0.99
+
+
+def test_match_learned_equals_the_census_steps_on_its_cost():
+    m = _model()
+    left, right = _noise_pair(5)
+    cost = learned_cost(m, left, right, max_disparity=10)
+    want = winner_takes_all(aggregate_cost(cost, size=5), lr_check=True, subpixel=True)
+    got = match_learned(left, right, m, max_disparity=10, aggregate=5, lr_check=True,
+                        subpixel=True).disparity
+    np.testing.assert_array_equal(got, want)
+
+
+def test_rgb_and_grey_views_give_the_same_answer():
+    rng = np.random.default_rng(4)
+    grey = rng.integers(0, 256, (30, 60), dtype=np.uint8)
+    rgb = np.repeat(grey[..., None], 3, axis=2)
+    m = _model()
+    a = match_learned(grey, np.roll(grey, -3, axis=1), m, max_disparity=8).disparity
+    b = match_learned(rgb, np.roll(rgb, -3, axis=1), m, max_disparity=8).disparity
+    np.testing.assert_array_equal(a, b)
+
+
+def test_model_file_round_trip(tmp_path):
+    m = _model(seed=3)
+    path = save_model(tmp_path / "m.pt", m.net, {"training": {"seed": 3, "steps": 7},
+                                                 "inference": {"aggregate": 7}})
+    back = load_model(path)
+    assert back.arch == m.arch and back.path == path
+    assert back.header["architecture"] == {"name": "mccnn-fast", "channels": 8, "layers": 3,
+                                           "kernel": 3, "patch": 7}
+    assert back.header["training"] == {"seed": 3, "steps": 7}
+    assert back.inference == {"aggregate": 7, "lr_check": False, "subpixel": True}
+    assert "stereoforge_version" in back.header
+    for k, v in m.net.state_dict().items():
+        assert torch.equal(back.net.state_dict()[k], v)
+    left, right = _noise_pair(4)
+    np.testing.assert_array_equal(match_learned(left, right, back, max_disparity=8).disparity,
+                                  match_learned(left, right, m, max_disparity=8,
+                                                aggregate=7).disparity)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.pt"]  # no temporary file left
+
+
+def _write_other(path, blob):
+    torch.save(blob, path)
+    return path
+
+
+@pytest.mark.parametrize("case", ["truncated", "garbage", "empty", "other_dict", "architecture",
+                                  "weights", "version", "directory"])
+def test_bad_model_files_are_one_line_errors(tmp_path, case):
+    good = save_model(tmp_path / "good.pt", _model().net, {})
+    blob = torch.load(good, weights_only=True)
+    bad = tmp_path / "bad.pt"
+    if case == "truncated":
+        bad.write_bytes(good.read_bytes()[:200])
+    elif case == "garbage":
+        bad.write_bytes(np.random.default_rng(0).bytes(4096))
+    elif case == "empty":
+        bad.write_bytes(b"")
+    elif case == "other_dict":
+        _write_other(bad, {"weights": torch.zeros(3)})
+    elif case == "architecture":
+        blob["header"]["architecture"]["name"] = "raft-stereo"
+        _write_other(bad, blob)
+    elif case == "weights":
+        blob["header"]["architecture"]["channels"] = 16
+        _write_other(bad, blob)
+    elif case == "version":
+        blob["format_version"] = 99
+        _write_other(bad, blob)
+    else:
+        bad.mkdir()
+    with pytest.raises(ModelError) as info:
+        load_model(bad)
+    text = str(info.value)
+    assert "\n" not in text and str(bad) in text and "stereoforge train" in text
+    expected = {"architecture": "'raft-stereo'", "weights": "do not fit", "version": "99",
+                "directory": "is a directory", "other_dict": "not a stereoforge-learned-matcher"}
+    assert expected.get(case, "not a readable model file") in text
+
+
+def test_learned_matcher_string(tmp_path):
+    path = save_model(tmp_path / "net.pt", _model().net, {})
+    m = resolve_matcher(f"learned:{path}")
+    assert m.kind == "learned" and m.name == "learned:net"
+    left, right = _noise_pair(4)
+    grey = m(left, right, max_disparity=8)
+    rgb = m(np.repeat(left[..., None], 3, 2), np.repeat(right[..., None], 3, 2), max_disparity=8)
+    assert grey.dtype == np.float32 and grey.shape == left.shape
+    np.testing.assert_array_equal(grey, rgb)
+    outcome = m.run(left, right[:, :10], max_disparity=8)  # failures are outcomes, not raises
+    assert outcome.disparity is None and outcome.error.startswith("crashed: ")
+
+
+def test_learned_matcher_string_errors(tmp_path):
+    with pytest.raises(MatcherError, match="does not exist"):
+        resolve_matcher(f"learned:{tmp_path}/missing.pt")
+    (tmp_path / "bad.pt").write_bytes(b"not a model")
+    with pytest.raises(MatcherError, match="not a readable model file"):
+        resolve_matcher(f"learned:{tmp_path}/bad.pt")
+    with pytest.raises(MatcherError, match="learned:MODEL.pt"):
+        resolve_matcher("learned:")
