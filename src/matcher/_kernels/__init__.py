@@ -11,6 +11,7 @@ from matcher._kernels.adaptive import (
     right_window_map,
     select_windows_kernel,
 )
+from matcher._kernels.aggregate import AGG_SENTINEL, aggregate_kernel
 from matcher._kernels.canny import canny_from_derivatives, canny_on_derivatives, canny_thresholds
 from matcher._kernels.census import (
     COST_SENTINEL,
@@ -27,8 +28,10 @@ from matcher._kernels.cthw import (
 from matcher._kernels.intrinsics import fetch_add, popcount64
 
 __all__ = [
+    "AGG_SENTINEL",
     "COST_SENTINEL",
     "adaptive_wta_kernel",
+    "aggregate_kernel",
     "canny_from_derivatives",
     "canny_on_derivatives",
     "canny_thresholds",
