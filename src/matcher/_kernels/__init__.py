@@ -26,6 +26,7 @@ from matcher._kernels.cthw import (
     path_mode_up_kernel,
 )
 from matcher._kernels.intrinsics import fetch_add, popcount64
+from matcher._kernels.select import wta_kernel
 
 __all__ = [
     "AGG_SENTINEL",
@@ -47,4 +48,5 @@ __all__ = [
     "popcount64",
     "right_window_map",
     "select_windows_kernel",
+    "wta_kernel",
 ]
