@@ -11,15 +11,13 @@ that never builds them and gives bit-identical disparities.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
-from matcher._kernels import COST_SENTINEL, cost_volume_kernel
+from matcher._kernels import AGG_SENTINEL, COST_SENTINEL, aggregate_kernel, cost_volume_kernel
 from matcher._validation import check_max_disparity
 
 __all__ = ["AGG_SENTINEL", "COST_SENTINEL", "aggregate_cost", "cost_volume"]
-
-#: Aggregated cost stored where ``x - d < 0`` (not a candidate).
-AGG_SENTINEL = np.uint32(0xFFFFFFFF)
 
 
 def _check_codes(codes: object, name: str) -> np.ndarray:
@@ -111,15 +109,13 @@ def aggregate_cost(cost: np.ndarray, *, size: int) -> np.ndarray:
         raise TypeError("cost: expected an (H, D, W) uint16 volume; use cost_volume")
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 3 or size % 2 == 0:
         raise ValueError(f"size: expected an odd integer >= 3, got {size!r}")
-    h = size // 2
-    n_rows, n_disp, width = cost.shape
-    out = np.full(cost.shape, AGG_SENTINEL, dtype=np.uint32)
-    for d in range(min(n_disp, width)):
-        valid = cost[:, d, d:].astype(np.int64)
-        padded = np.pad(valid, h, mode="edge")
-        csum = np.cumsum(np.cumsum(padded, axis=0), axis=1)
-        csum = np.pad(csum, ((1, 0), (1, 0)))
-        s = size
-        box = csum[s:, s:] - csum[:-s, s:] - csum[s:, :-s] + csum[:-s, :-s]
-        out[:, d, d:] = box.astype(np.uint32)
+    out = np.empty(cost.shape, dtype=np.uint32)
+    if cost.size:
+        n_threads = numba.get_num_threads()
+        # at least one box of rows per strip (its first row costs 2h + 1 row additions, the others
+        # 2), and about four strips per worker
+        strip = max(size, -(-cost.shape[0] // (4 * n_threads)))
+        aggregate_kernel(
+            np.ascontiguousarray(cost), size // 2, strip, n_threads, np.zeros(1, np.int64), out
+        )
     return out

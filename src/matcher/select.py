@@ -11,11 +11,17 @@ Rules (the fused kernel of :func:`matcher.match` follows them bit for bit):
   ``(c[d-1] - c[d+1]) / (2 (c[d-1] - 2 c[d] + c[d+1]))`` (float64, then float32). It is applied
   only where both neighbours are candidates (``1 <= d <= D - 2`` and ``x - d - 1 >= 0``) and the
   curvature is positive; elsewhere ``d`` stays an integer.
+
+:func:`winner_takes_all` runs one parallel numba kernel (:mod:`matcher._kernels.select`), a row of
+the volume per work item, without copying the volume.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
+
+from matcher._kernels import wta_kernel
 
 __all__ = ["winner_takes_all"]
 
@@ -36,16 +42,6 @@ def _check_cost(cost: object) -> np.ndarray:
             "use matcher.cost.cost_volume (or aggregate_cost)"
         )
     return cost
-
-
-def _right_costs(cost: np.ndarray) -> np.ndarray:
-    """The cost volume seen from the right view: ``out[y, d, xr] = cost[y, d, xr + d]``."""
-    sentinel = np.iinfo(cost.dtype).max
-    out = np.full(cost.shape, sentinel, dtype=cost.dtype)
-    width = cost.shape[2]
-    for d in range(min(cost.shape[1], width)):
-        out[:, d, : width - d] = cost[:, d, d:]
-    return out
 
 
 def winner_takes_all(
@@ -89,24 +85,18 @@ def winner_takes_all(
     if lr_tolerance < 0:
         raise ValueError(f"lr_tolerance: expected an integer >= 0, got {lr_tolerance}")
     n_rows, n_disp, width = cost.shape
-    d_left = np.argmin(cost, axis=1)  # first minimum: ties -> smallest d
-    out = d_left.astype(np.float64)
-    if subpixel:
-        ys, xs = np.indices(d_left.shape)
-        ok = (d_left >= 1) & (d_left <= n_disp - 2) & (xs - d_left - 1 >= 0)
-        dm = np.clip(d_left - 1, 0, n_disp - 1)
-        dp = np.clip(d_left + 1, 0, n_disp - 1)
-        cm = cost[ys, dm, xs].astype(np.float64)
-        cp = cost[ys, dp, xs].astype(np.float64)
-        c0 = cost[ys, d_left, xs].astype(np.float64)
-        den = cm - 2.0 * c0 + cp
-        ok &= den > 0.0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            offset = (cm - cp) / (2.0 * den)
-        out = np.where(ok, out + offset, out)
-    if lr_check:
-        d_right = np.argmin(_right_costs(cost), axis=1)
-        xs = np.arange(width)[None, :]
-        partner = np.take_along_axis(d_right, xs - d_left, axis=1)
-        out[np.abs(d_left - partner) > lr_tolerance] = np.inf
-    return out.astype(np.float32)
+    if n_disp == 0:
+        raise ValueError(f"cost: expected at least one disparity (D >= 1), got shape {cost.shape}")
+    out = np.empty((n_rows, width), dtype=np.float32)
+    bad = np.zeros(1, np.int64)
+    lr_tol = int(min(lr_tolerance, n_disp)) if lr_check else -1  # |d_L - d_R| < D
+    wta_kernel(
+        np.ascontiguousarray(cost), lr_tol, bool(subpixel), numba.get_num_threads(),
+        np.zeros(1, np.int64), out, bad,
+    )
+    if bad[0]:
+        raise IndexError(
+            "cost: a left disparity d > x + W has no right partner; entries with x - d < 0 must "
+            "hold the sentinel (the dtype's maximum)"
+        )
+    return out

@@ -11,6 +11,7 @@ from matcher._kernels.adaptive import (
     right_window_map,
     select_windows_kernel,
 )
+from matcher._kernels.aggregate import AGG_SENTINEL, aggregate_kernel
 from matcher._kernels.canny import canny_from_derivatives, canny_on_derivatives, canny_thresholds
 from matcher._kernels.census import (
     COST_SENTINEL,
@@ -26,10 +27,13 @@ from matcher._kernels.cthw import (
 )
 from matcher._kernels.intrinsics import fetch_add, popcount64
 from matcher._kernels.learned import similarity_cost_kernel
+from matcher._kernels.select import wta_kernel
 
 __all__ = [
+    "AGG_SENTINEL",
     "COST_SENTINEL",
     "adaptive_wta_kernel",
+    "aggregate_kernel",
     "canny_from_derivatives",
     "canny_on_derivatives",
     "canny_thresholds",
@@ -46,4 +50,5 @@ __all__ = [
     "right_window_map",
     "select_windows_kernel",
     "similarity_cost_kernel",
+    "wta_kernel",
 ]
