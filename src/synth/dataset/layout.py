@@ -21,10 +21,9 @@ takes every entry for a scene folder of the 2014 archives (so ``2014/`` holds no
 ``training/image_2`` is RAFT-Stereo's and the KITTI devkit's root. Nothing of stereoforge's own
 dataset metadata (header, manifests, lock, completion records) sits in those folders; a sample
 folder holds its own ``scene.json`` and ``sample.json`` beside the files the tools read, which
-they ignore. Layout 1 (stereoforge before this version) put
-the sample folders ``000000/`` at the root, beside ``dataset.json``, with the completion record
-``000000/files.json`` inside, where the tools took them (and ``dataset.json``) for scenes:
-:func:`upgrade_dataset` converts it.
+they ignore. Layout 1 (stereoforge before this version) put the sample folders ``000000/`` at the
+root, beside ``dataset.json``, with the completion record ``000000/files.json`` inside, where the
+tools took them (and ``dataset.json``) for scenes: :func:`upgrade_dataset` converts it.
 """
 
 from __future__ import annotations
