@@ -9,7 +9,7 @@ The public API, in one place::
 - :class:`Renderer`, :func:`render_pair`, :class:`StereoPair` — a pair of views with left/right
   disparity exact to float precision, depth and occlusion masks (headless GL: EGL or OSMesa).
 - :class:`PhotometricParams`, :func:`apply_photometric` — seeded sensor models for the views.
-- :func:`write_pair` — a pair in the Middlebury 2014 or KITTI 2015 layout.
+- :func:`write_pair` — a pair in a Middlebury layout (MiddEval3, 2014 scenes) or KITTI 2015.
 - :func:`run_dataset`, :func:`load_config`, :func:`read_manifest`, :func:`render_from_manifest` —
   deterministic, resumable datasets.
 - :class:`StereoDataset` — a dataset directory as a map-style training dataset (numpy arrays).

@@ -31,7 +31,7 @@ from matcher.io import (
 from scenes import SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
 from synth._json import json_bytes
-from synth.formats import FORMATS, KITTI_ROOT
+from synth.formats import FORMATS, KITTI_ROOT, MIDDLEBURY_LAYOUTS
 from synth.pair import StereoPair
 from synth.preview import preview_image
 
@@ -281,14 +281,16 @@ def write_pair(
     scene : SceneSpec
         The fully resolved scene, stored in ``scene.json`` with the rig and seed.
     seed : int
-    fmt : {"middlebury", "kitti"}
+    fmt : {"middlebury", "middlebury2014", "kitti"}
         ``middlebury``: a MiddEval3 scene folder in ``out`` (with the pair's exposure and lighting
         variants as ``im1E.png``/``im1L.png`` and its highlight masks as ``mask0spec.png``/
-        ``mask1spec.png`` when it has them); ``kitti``: frame ``index`` under
+        ``mask1spec.png`` when it has them); ``middlebury2014``: the same folder with the ground
+        truth named as in the 2014 scene archives (``disp0.pfm``, ``disp1.pfm``); ``kitti``: frame
+        ``index`` under
         ``out/training/`` (with ``obj_map/`` from :func:`foreground_map` and
         ``calib_cam_to_cam/``), ``scene.json`` and ``preview.png`` in ``out``. A pair of a rig
-        with camera errors (``pair.flow_left`` set) also gets ``flow0.flo`` and is refused in
-        the KITTI layout.
+        with camera errors (``pair.flow_left`` set) also gets ``flow0.flo`` in a Middlebury
+        folder and is refused in the KITTI layout.
     index : int
         Frame index in the KITTI layout.
     preview : bool
@@ -306,10 +308,10 @@ def write_pair(
         raise ValueError(f"unknown format {fmt!r}; valid formats: {', '.join(FORMATS)}")
     out = Path(out)
     flow = None if pair.flow_left is None else encode_flo(pair.flow_left)
-    if flow is not None and fmt != "middlebury":
+    if flow is not None and fmt not in MIDDLEBURY_LAYOUTS:
         raise OutputDirError(f"a rig with camera errors writes its exact flow as flow0.flo in the "
-                             f"middlebury layout only, not {fmt!r}; use --format middlebury")
-    if fmt == "middlebury":
+                             f"middlebury layouts only, not {fmt!r}; use --format middlebury")
+    if fmt in MIDDLEBURY_LAYOUTS:
         written = list(
             write_middlebury(
                 out,
@@ -324,6 +326,7 @@ def write_pair(
                 right_lighting=pair.right_lighting,
                 highlight_left=pair.highlight_left,
                 highlight_right=pair.highlight_right,
+                layout=MIDDLEBURY_LAYOUTS[fmt],
             )
         )
         if flow is not None:  # the real cameras' exact correspondence (docs/formats.md)

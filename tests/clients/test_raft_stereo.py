@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from matcher.io import load_kitti_2015, load_middlebury_2014
+from matcher.io import load_kitti_2015, load_middlebury_2014, read_image
 from synth.dataset.config import loads_config
 from synth.dataset.run import run_dataset
 
@@ -32,6 +32,8 @@ height = 48
 base = {choice = ["fronto_plane", "boxes", "flying"]}
 occluders = {uniform = [0, 2]}
 """
+#: Real im1E.png / im1L.png (else they are copies of im1.png), for RAFT's split "2014".
+VARIANTS = "exposure_variant = 2.0\nlighting_variant = 30.0\n"
 
 # RAFT's readPFM never closes its file (a ResourceWarning, raised when the file object is
 # collected) and its Middlebury reader calls imageio's v2 imread: third-party warnings.
@@ -51,6 +53,11 @@ class _Tensor(np.ndarray):
 
     def abs(self) -> _Tensor:
         return np.abs(self).view(_Tensor)
+
+
+def _rgb(image: np.ndarray) -> np.ndarray:
+    """A grey image as RAFT's ``StereoDataset.__getitem__`` returns it (tiled to 3 channels)."""
+    return image if image.ndim == 3 else np.repeat(image[..., None], 3, axis=2)
 
 
 def _fake_modules() -> dict[str, types.ModuleType]:
@@ -109,10 +116,8 @@ def test_raft_middlebury_loader_lists_and_reads_our_dataset(raft, renderer, tmp_
         ours = load_middlebury_2014(scenes / f"{i:06d}")
         paths, img1, img2, flow, valid = loader[i]
         assert paths[2] == str(scenes / f"{i:06d}" / "disp0GT.pfm")
-        left = ours.left if ours.left.ndim == 3 else np.repeat(ours.left[..., None], 3, axis=2)
-        right = ours.right if ours.right.ndim == 3 else np.repeat(ours.right[..., None], 3, axis=2)
-        np.testing.assert_array_equal(np.transpose(img1, (1, 2, 0)), left)
-        np.testing.assert_array_equal(np.transpose(img2, (1, 2, 0)), right)
+        np.testing.assert_array_equal(np.transpose(img1, (1, 2, 0)), _rgb(ours.left))
+        np.testing.assert_array_equal(np.transpose(img2, (1, 2, 0)), _rgb(ours.right))
         # RAFT's flow is -disparity; its valid is mask0nocc == 255
         np.testing.assert_array_equal(-flow[0], ours.disp_left.astype(np.float32))
         np.testing.assert_array_equal(valid.astype(bool), ours.mask_left == 255)
@@ -142,3 +147,74 @@ def test_raft_kitti_loader_lists_and_reads_our_dataset(raft, renderer, tmp_path)
         np.testing.assert_array_equal(disp[ok], ours.disp_left[ok])
         np.testing.assert_array_equal(-flow[0][ok], ours.disp_left[ok].astype(np.float32))
         np.testing.assert_array_equal(valid.astype(bool), ok)
+
+
+def _check_2014_scenes(loader, frame_utils, scenes: list[Path]) -> None:
+    """RAFT's ``Middlebury(split="2014")`` over ``scenes``: three pairs per scene (``im0.png``
+    with ``im1E.png``, ``im1L.png``, ``im1.png``, in that order), ``disp0.pfm`` for each, and
+    every array it returns equal to ours. Its ``valid`` is ``disp0.pfm < 1e3``: every pixel with
+    ground truth, the occluded ones included (``inf``, no ground truth, is invalid), as for the
+    real 2014 scenes."""
+    assert sorted(Path(pair[0]).parent for pair in loader.image_list[::3]) == sorted(scenes)
+    assert len(loader) == 3 * len(scenes)
+    for k, (pair, disp_path) in enumerate(zip(loader.image_list, loader.disparity_list)):
+        scene = Path(pair[0]).parent
+        assert pair == [str(scene / "im0.png"), str(scene / f"im1{('E', 'L', '')[k % 3]}.png")]
+        assert disp_path == str(scene / "disp0.pfm")
+        ours = load_middlebury_2014(scene)
+        paths, img1, img2, flow, valid = loader[k]
+        assert paths == [*pair, disp_path]
+        np.testing.assert_array_equal(np.transpose(img1, (1, 2, 0)), _rgb(ours.left))
+        np.testing.assert_array_equal(np.transpose(img2, (1, 2, 0)),
+                                      _rgb(read_image(scene / Path(pair[1]).name)))
+        # RAFT's flow is -disparity (inf -> -inf where there is no ground truth)
+        np.testing.assert_array_equal(-flow[0], ours.disp_left.astype(np.float32))
+        np.testing.assert_array_equal(valid.astype(bool), np.isfinite(ours.disp_left))
+        assert valid.astype(bool)[ours.mask_left == 128].all()  # occluded, with ground truth
+        disp, ok = frame_utils.readDispMiddlebury(disp_path)
+        np.testing.assert_array_equal(disp, ours.disp_left)
+        np.testing.assert_array_equal(ok, np.isfinite(ours.disp_left))
+        np.testing.assert_array_equal(frame_utils.readPFM(str(scene / "disp1.pfm")),
+                                      ours.disp_right)
+    for scene in scenes:  # the variants are the rendered ones, not copies of im1.png
+        right = read_image(scene / "im1.png")
+        for name in ("im1E.png", "im1L.png"):
+            assert not np.array_equal(read_image(scene / name), right), (scene, name)
+
+
+@pytest.mark.gl
+def test_raft_middlebury_2014_loader_lists_and_reads_our_dataset(raft, renderer, tmp_path):
+    datasets, frame_utils = raft
+    out = tmp_path / "ds"
+    run_dataset(loads_config(CONFIG + VARIANTS), out=out, fmt="middlebury2014", progress=False)
+    loader = datasets.Middlebury(None, root=str(out), split="2014")
+    _check_2014_scenes(loader, frame_utils, [out / "2014" / f"{i:06d}" for i in range(3)])
+
+
+@pytest.mark.gl
+def test_raft_middlebury_2014_loader_reads_a_rendered_pair(raft, renderer, tmp_path):
+    """``stereoforge render --format middlebury2014 --out ROOT/2014/<scene>`` is one scene folder
+    of the 2014 archives: ``Middlebury(root=ROOT, split="2014")`` loads it as it is."""
+    from click.testing import CliRunner
+
+    from synth.cli import main
+
+    import dataclasses
+
+    from scenes import dumps_toml, get_preset
+
+    datasets, frame_utils = raft
+    plane = get_preset("fronto_plane")
+    card = tmp_path / "card.toml"  # a plane smaller than the view: pixels without ground truth
+    card.write_text(dumps_toml(dataclasses.replace(
+        plane, name="card", objects=(dataclasses.replace(plane.objects[0], size=(1.2, 0.8)),))))
+    root = tmp_path / "Middlebury"
+    scenes = {"boxes": root / "2014" / "boxes-perfect", str(card): root / "2014" / "card-perfect"}
+    for scene, folder in scenes.items():
+        result = CliRunner().invoke(main, [
+            "render", scene, "--out", str(folder), "--format", "middlebury2014", "--width", "64",
+            "--height", "48", "--exposure-variant", "2", "--lighting-variant", "30"])
+        assert result.exit_code == 0, result.output
+    assert not np.isfinite(load_middlebury_2014(scenes[str(card)]).disp_left).all()
+    loader = datasets.Middlebury(None, root=str(root), split="2014")
+    _check_2014_scenes(loader, frame_utils, list(scenes.values()))

@@ -165,6 +165,28 @@ def test_calib_isint_defaults_to_0_and_gt_uses_the_middeval3_names(tmp_path):
         assert (tmp_path / name).read_bytes() == (tmp_path / "im1.png").read_bytes()
 
 
+def test_the_2014_layout_renames_the_ground_truth_and_changes_no_byte(tmp_path):
+    """``layout="2014"``: the 2014 scene archives' ``disp0.pfm``/``disp1.pfm`` (RAFT-Stereo's
+    ``split="2014"``) instead of MiddEval3's names; every file has the MiddEval3 layout's bytes."""
+    left, right, disp, mask, disp_right = _frame()
+    kw = dict(left=left, right=right, disp_left=disp, disp_right=disp_right, mask_left=mask,
+              calib=CALIB, right_exposure=right // 2, highlight_left=mask, highlight_right=mask)
+    middeval3 = write_middlebury(tmp_path / "mv3", **kw)
+    files = write_middlebury(tmp_path / "2014", layout="2014", **kw)
+    renamed = {"disp0GT.pfm": "disp0.pfm", "disp1GT.pfm": "disp1.pfm"}
+    assert [f.name for f in files] == [renamed.get(f.name, f.name) for f in middeval3]
+    assert _files(tmp_path / "2014") == sorted(f.name for f in files)
+    for a, b in zip(middeval3, files):
+        assert a.read_bytes() == b.read_bytes(), b.name
+    s = load_middlebury_2014(tmp_path / "2014")
+    np.testing.assert_array_equal(s.disp_left, disp)
+    np.testing.assert_array_equal(s.disp_right, np.where(np.isnan(disp_right), np.inf, disp_right))
+    np.testing.assert_array_equal(s.mask_left, mask)
+    with pytest.raises(ValueError, match=r"layout: expected one of \['middeval3', '2014'\]"):
+        write_middlebury(tmp_path / "bad", layout="MiddEval3", **kw)
+    assert not (tmp_path / "bad").exists()
+
+
 def test_middlebury_variants_and_highlight_masks_replace_the_copies(tmp_path):
     left, right, disp, mask, disp_right = _frame()
     exposed, relit = right // 2, 255 - right

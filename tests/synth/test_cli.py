@@ -89,6 +89,20 @@ def test_render_writes_middlebury_layout_and_refuses_non_empty_dir(tmp_path, ren
 
 
 @pytest.mark.gl
+def test_render_middlebury_2014_layout_renames_only_the_ground_truth(tmp_path, renderer):
+    args = ("render", "boxes", "--width", 64, "--height", 48)
+    assert _run(*args, "--out", tmp_path / "mv3").exit_code == 0
+    result = _run(*args, "--out", tmp_path / "2014", "--format", "middlebury2014")
+    assert result.exit_code == 0, result.output
+    renamed = {"disp0GT.pfm": "disp0.pfm", "disp1GT.pfm": "disp1.pfm"}
+    mv3 = {renamed.get(p.name, p.name): p.read_bytes() for p in (tmp_path / "mv3").iterdir()}
+    ours = {p.name: p.read_bytes() for p in (tmp_path / "2014").iterdir()}
+    assert json.loads(ours.pop("scene.json")) == {**json.loads(mv3.pop("scene.json")),
+                                                  "format": "middlebury2014"}
+    assert ours == mv3
+
+
+@pytest.mark.gl
 def test_render_kitti_layout(tmp_path, renderer):
     out = tmp_path / "k"
     result = _run("render", "boxes", "--out", out, "--format", "kitti", "--width", 64, "--height", 48)

@@ -61,8 +61,12 @@ def _record(root: Path, i: int) -> Path:
     return root / RECORDS / f"{i:06d}.json"
 
 
+_PARENTS = {"middlebury": "MiddEval3/trainingF", "middlebury2014": "2014",
+            "kitti": "training/samples"}
+
+
 def _sample(root: Path, i: int, fmt: str = "middlebury") -> Path:
-    return root / ("MiddEval3/trainingF" if fmt == "middlebury" else "training/samples") / f"{i:06d}"
+    return root / _PARENTS[fmt] / f"{i:06d}"
 
 
 def _tree(root: Path) -> dict[str, bytes]:
@@ -254,6 +258,48 @@ def test_kitti_layout(config_file, tmp_path, renderer):
     for sub in ("image_2", "disp_noc_0", "obj_map"):
         assert (out / "training" / sub / "000001_10.png").read_bytes() == \
             (tmp_path / "one" / "training" / sub / "000001_10.png").read_bytes()
+
+
+@pytest.mark.gl
+def test_middlebury_2014_layout_is_the_middeval3_samples_renamed(reference, config_file,
+                                                                 tmp_path):
+    """``fmt="middlebury2014"``: ``2014/NNNNNN/`` holds the scene folders alone (RAFT-Stereo's
+    ``split="2014"`` takes every entry for one), each with the MiddEval3 sample's bytes and the
+    ground truth named ``disp0.pfm``/``disp1.pfm``; resume, verify and render_from_manifest as
+    in the other layouts."""
+    from synth.dataset.integrity import verify_dataset
+
+    out = tmp_path / "mb2014"
+    run_dataset(config_file, out=out, count=3, fmt="middlebury2014", progress=False)
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "2014", "dataset.json",
+                                                     "manifest.csv", "manifest.jsonl", RECORDS]
+    assert sorted(p.name for p in (out / "2014").iterdir()) == ["000000", "000001", "000002"]
+    assert json.loads((out / "dataset.json").read_text())["format"] == "middlebury2014"
+    renamed = {"disp0GT.pfm": "disp0.pfm", "disp1GT.pfm": "disp1.pfm"}
+    for i in range(3):
+        theirs, ours = _tree(_sample(reference, i)), _tree(_sample(out, i, "middlebury2014"))
+        scene = json.loads(ours.pop("scene.json"))  # it names the format
+        assert scene == {**json.loads(theirs.pop("scene.json")), "format": "middlebury2014"}
+        assert ours == {renamed.get(k, k): v for k, v in theirs.items()}
+        theirs["scene.json"] = b""
+        assert sorted(json.loads(_record(out, i).read_text())["files"]) == sorted(
+            f"2014/{i:06d}/{renamed.get(k, k)}" for k in theirs)
+    assert read_manifest(out) == read_manifest(reference)[:3]
+    assert verify_dataset(out) == []
+    clean = _tree(out)
+    (_sample(out, 1, "middlebury2014") / "disp0.pfm").write_bytes(b"Pf\n")
+    (out / "2014" / "notes.txt").write_text("not a scene")
+    assert verify_dataset(out, checksums=False) == [
+        f"2014/000001/disp0.pfm: 3 bytes, its record says "
+        f"{len(clean['2014/000001/disp0.pfm'])} bytes (truncated or replaced)",
+        "2014/notes.txt: extra file (no sample's record lists it)"]
+    (out / "2014" / "notes.txt").unlink()
+    run = run_dataset(config_file, out=out, count=3, fmt="middlebury2014", progress=False)
+    assert (run.rendered, run.skipped) == (1, 2)
+    assert _tree(out) == clean
+    files = render_from_manifest(out, 2, out=tmp_path / "one")
+    assert sorted(f.name for f in files) == sorted(_tree(_sample(out, 2, "middlebury2014")))
+    _assert_same_tree(_sample(out, 2, "middlebury2014"), tmp_path / "one")
 
 
 # --------------------------------------------------------------------------- kill and resume
@@ -454,6 +500,7 @@ if __name__ == "__main__":
 @pytest.mark.gl
 @pytest.mark.parametrize("fmt, die_after, torn", [
     ("middlebury", "*/.000002.tmp-*/disp0GT.pfm", 2),  # the 3rd file of sample 2, in its temp dir
+    ("middlebury2014", "*/.000001.tmp-*/disp0.pfm", 1),
     ("kitti", "*/ds/training/image_3/000001_10.png", 1),  # sample 1: a file moved, others to go
 ])
 def test_a_torn_sample_is_rendered_again_with_the_same_bytes(config_file, tmp_path, fmt,

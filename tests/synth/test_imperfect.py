@@ -252,7 +252,11 @@ def test_write_pair_writes_flow0_and_refuses_kitti(renderer: Renderer, tmp_path)
     assert tmp_path / "flow0.flo" in files
     np.testing.assert_array_equal(read_flo(tmp_path / "flow0.flo"), pair.flow_left)
     np.testing.assert_array_equal(read_image(tmp_path / "im0.png"), pair.left)
-    with pytest.raises(OutputDirError, match="flow0.flo in the middlebury layout only"):
+    in_2014 = write_pair(pair, tmp_path / "2014", scene=spec, seed=0, fmt="middlebury2014",
+                         preview=False, fsync=False)
+    assert {"flow0.flo", "disp0.pfm"} <= {p.name for p in in_2014}
+    assert (tmp_path / "2014" / "flow0.flo").read_bytes() == (tmp_path / "flow0.flo").read_bytes()
+    with pytest.raises(OutputDirError, match="flow0.flo in the middlebury layouts only"):
         write_pair(pair, tmp_path / "k", scene=spec, seed=0, fmt="kitti", fsync=False)
     ideal = render_pair(spec, StereoRig.default(64, 48), renderer=renderer)
     assert ideal.flow_left is None

@@ -40,7 +40,7 @@ def datasets(tmp_path_factory, renderer) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("loader")
     cfg = loads_config(CONFIG)
     out = {}
-    for fmt in ("middlebury", "kitti"):
+    for fmt in ("middlebury", "middlebury2014", "kitti"):
         out[fmt] = root / fmt
         run_dataset(cfg, out=out[fmt], fmt=fmt, count=40 if fmt == "middlebury" else 4,
                     progress=False)
@@ -87,6 +87,22 @@ def test_kitti_items_are_the_files(datasets):
     np.testing.assert_array_equal(item["disp"], ours.disp_left)
     np.testing.assert_array_equal(item["occlusion"], ours.mask_left == 128)
     assert "disp_right" not in item
+
+
+@pytest.mark.gl
+def test_middlebury_2014_items_are_the_middeval3_items(datasets):
+    """The same config in the 2014 layout (``2014/NNNNNN/disp0.pfm``): the same arrays."""
+    data, twin = StereoDataset(datasets["middlebury2014"]), StereoDataset(datasets["middlebury"])
+    assert len(data) == 4 and data.format == "middlebury2014"
+    for i in range(4):
+        item, theirs = data[i], twin[i]
+        assert sorted(item) == sorted(theirs)
+        for key, value in item.items():
+            if key == "calib":
+                assert value == theirs[key]
+            else:
+                np.testing.assert_array_equal(value, theirs[key])
+                assert np.asarray(value).dtype == np.asarray(theirs[key]).dtype, key
 
 
 @pytest.mark.gl

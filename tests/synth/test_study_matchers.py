@@ -82,9 +82,10 @@ def test_eval_dataset_on_a_dataset_folder(tmp_path, renderer):
 
 
 @pytest.mark.gl
-def test_eval_dataset_reads_a_kitti_dataset_as_its_middlebury_twin(tmp_path, renderer):
-    """Same config in both layouts: the same pairs, regions and estimates (KITTI's GT is the
-    Middlebury one quantized to 1/256 px); KITTI's default search range comes from its GT."""
+def test_eval_dataset_reads_kitti_and_2014_datasets_as_their_middlebury_twin(tmp_path, renderer):
+    """Same config in every layout: the same pairs, regions and estimates (KITTI's GT is the
+    Middlebury one quantized to 1/256 px, the 2014 layout's the same file as disp0.pfm); KITTI's
+    default search range comes from its GT."""
     import math
 
     import numpy as np
@@ -95,7 +96,7 @@ def test_eval_dataset_reads_a_kitti_dataset_as_its_middlebury_twin(tmp_path, ren
     cfg = tmp_path / "d.toml"
     cfg.write_text("count = 2\n[rig]\nwidth = 64\nheight = 48\n[scene]\nbase = 'boxes'\n")
     rows = {}
-    for fmt in ("middlebury", "kitti"):
+    for fmt in ("middlebury", "middlebury2014", "kitti"):
         run_dataset(cfg, out=tmp_path / fmt, fmt=fmt, progress=False)
         for args, key in (([], fmt), (["--max-disp", "16"], f"{fmt}-16")):
             out = tmp_path / f"eval-{key}"
@@ -103,6 +104,15 @@ def test_eval_dataset_reads_a_kitti_dataset_as_its_middlebury_twin(tmp_path, ren
                                                "ct:5", "--out", str(out), *args])
             assert result.exit_code == 0, result.output
             rows[key] = _rows(out / "results.csv")
+    def untimed(rows: list[dict]) -> list[dict]:
+        return [{k: v for k, v in r.items() if k not in ("seconds", "mpix_disp_per_s")}
+                for r in rows]
+
+    for key, twin in (("middlebury", "middlebury2014"), ("middlebury-16", "middlebury2014-16")):
+        assert untimed(rows[twin]) == untimed(rows[key])  # the 2014 layout: every score the same
+        for r in rows[key]:
+            assert (tmp_path / f"eval-{key}" / r["estimate"]).read_bytes() == \
+                (tmp_path / f"eval-{twin}" / r["estimate"]).read_bytes()
     mid, kit = rows["middlebury-16"], rows["kitti-16"]
     assert [(r["index"], r["region"], r["pixels"]) for r in mid] == \
         [(r["index"], r["region"], r["pixels"]) for r in kit]
@@ -130,7 +140,7 @@ def test_eval_dataset_refuses_shards(tmp_path):
 def test_eval_dataset_refuses_a_folder_without_samples(tmp_path):
     result = CliRunner().invoke(main, ["eval-dataset", str(tmp_path), "--matcher", "ct"])
     assert result.exit_code == 2
-    assert ("no samples (MiddEval3/trainingF/NNNNNN/sample.json, or "
+    assert ("no samples (MiddEval3/trainingF/NNNNNN/sample.json, 2014/NNNNNN/sample.json or "
             "training/samples/NNNNNN/sample.json)") in result.output
 
 

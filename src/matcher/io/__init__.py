@@ -17,6 +17,7 @@ from matcher.io.kitti import (
     write_kitti,
 )
 from matcher.io.middlebury import (
+    GT_FILES,
     GT_NAMES,
     REQUIRED_CALIB_KEYS,
     infer_middlebury_2005_divisor,
@@ -52,6 +53,7 @@ __all__ = [
     "DEFLATES",
     "FloError",
     "GREY_DEFLATE",
+    "GT_FILES",
     "GT_NAMES",
     "KITTI_DIVISOR",
     "KITTI_MAX_DISPARITY",

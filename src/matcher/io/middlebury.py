@@ -3,7 +3,7 @@
 Middlebury 2005/2006 (read): ``view1.png``, ``view5.png`` (left, right), ``disp1.png``,
 ``disp5.png`` (8-bit disparity codes, ``code / divisor`` pixels, 0 = unknown).
 
-Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``)::
+Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``), ``layout="middeval3"``::
 
     im0.png, im1.png     left and right images (8-bit, RGB or grey)
     im1E.png, im1L.png   the right image under other exposure / lighting in real Middlebury 2014
@@ -17,7 +17,9 @@ Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``)::
     mask1spec.png        ... and of the right view
     calib.txt            cam0, cam1, doffs, baseline (mm), width, height, ndisp, isint, vmin, vmax
 
-Scenes written before the MiddEval3 names (``disp0.pfm``, ``disp1.pfm``) are still read.
+``layout="2014"`` writes the same files with the ground truth under the names of the 2014 scene
+archives (``Adirondack-perfect/disp0.pfm``, ``disp1.pfm``; RAFT-Stereo's ``split="2014"`` reads
+``disp0.pfm``). Both are read, and so are scenes stereoforge wrote before the MiddEval3 names.
 """
 
 from __future__ import annotations
@@ -29,7 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher._validation import check_ground_truth, check_occlusion_mask, check_positive
+from matcher._validation import (check_choice, check_ground_truth, check_occlusion_mask,
+                                 check_positive)
 from matcher.io.atomic import write_all_atomic
 from matcher.io.calib import format_calib, read_calib
 from matcher.io.pfm import encode_pfm
@@ -37,6 +40,7 @@ from matcher.io.png import encode_png, read_disparity, read_image
 from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
 __all__ = [
+    "GT_FILES",
     "GT_NAMES",
     "REQUIRED_CALIB_KEYS",
     "infer_middlebury_2005_divisor",
@@ -49,10 +53,14 @@ __all__ = [
 #: if absent.
 REQUIRED_CALIB_KEYS: tuple[str, ...] = ("cam0", "cam1", "doffs", "baseline", "ndisp")
 
-#: Ground-truth file names, newest first: MiddEval3's ``disp0GT.pfm``, then the 2014 dataset's
-#: ``disp0.pfm`` (what stereoforge wrote before).
-GT_NAMES: dict[str, tuple[str, ...]] = {"left": ("disp0GT.pfm", "disp0.pfm"),
-                                        "right": ("disp1GT.pfm", "disp1.pfm")}
+#: Ground-truth file names (left, right) of each scene layout :func:`write_middlebury` writes:
+#: MiddEval3's (its SDK, RAFT-Stereo's ``split="F"``) and the 2014 scene archives' (RAFT-Stereo's
+#: ``split="2014"``; what stereoforge wrote before the MiddEval3 names).
+GT_FILES: dict[str, tuple[str, str]] = {"middeval3": ("disp0GT.pfm", "disp1GT.pfm"),
+                                        "2014": ("disp0.pfm", "disp1.pfm")}
+#: Ground-truth file names the reader looks for, in this order (MiddEval3's first).
+GT_NAMES: dict[str, tuple[str, ...]] = {
+    view: tuple(names[i] for names in GT_FILES.values()) for i, view in enumerate(("left", "right"))}
 
 _SIZE_DIVISORS = (("third", 3.0), ("half", 2.0), ("full", 1.0))
 
@@ -127,10 +135,11 @@ def load_middlebury_2005(scene_dir: str | os.PathLike[str], *, divisor: float | 
 
 
 def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
-    """Load a Middlebury 2014 scene (the layout :func:`write_middlebury` writes).
+    """Load a Middlebury 2014 scene (either layout :func:`write_middlebury` writes).
 
-    Reads ``im0.png``, ``im1.png``, ``disp0GT.pfm`` (or, in scenes written before, ``disp0.pfm``),
-    ``calib.txt`` and, when present, ``disp1GT.pfm`` (``disp1.pfm``) and ``mask0nocc.png``.
+    Reads ``im0.png``, ``im1.png``, ``disp0GT.pfm`` (MiddEval3) or ``disp0.pfm`` (the 2014 scene
+    archives), ``calib.txt`` and, when present, ``disp1GT.pfm`` (``disp1.pfm``) and
+    ``mask0nocc.png`` (which the 2014 archives do not have).
 
     Returns
     -------
@@ -212,6 +221,7 @@ def write_middlebury(
     right_lighting: np.ndarray | None = None,
     highlight_left: np.ndarray | None = None,
     highlight_right: np.ndarray | None = None,
+    layout: str = "middeval3",
 ) -> list[Path]:
     """Write one stereo pair as a MiddEval3 / Middlebury 2014 scene folder.
 
@@ -231,7 +241,7 @@ def write_middlebury(
         Left ground truth in pixels, ``>= 0``; ``inf`` (or NaN, written as ``inf``) exactly where
         ``mask_left == 0``.
     disp_right : (H, W) float array or None
-        Right ground truth (``inf`` = none); ``disp1GT.pfm`` is skipped when None.
+        Right ground truth (``inf`` = none); ``disp1GT.pfm`` (``disp1.pfm``) is skipped when None.
     mask_left : (H, W) uint8 array
         Codes 255 (visible in both views), 128 (occluded in the right view), 0 (no ground truth).
     calib : dict
@@ -246,12 +256,17 @@ def write_middlebury(
     highlight_left, highlight_right : (H, W) uint8 array, optional
         Specular-highlight masks (255 highlight, 0 not), written as ``mask0spec.png`` and
         ``mask1spec.png`` (both or neither).
+    layout : {"middeval3", "2014"}
+        The ground truth's file names (:data:`GT_FILES`): MiddEval3's ``disp0GT.pfm``,
+        ``disp1GT.pfm``, or the 2014 scene archives' ``disp0.pfm``, ``disp1.pfm``. Every other
+        file, and every byte, is the same.
 
     Returns
     -------
     list of pathlib.Path
         The files written, in the order ``im0.png, im1.png, im1E.png, im1L.png, disp0GT.pfm,
-        [disp1GT.pfm,] mask0nocc.png, [mask0spec.png, mask1spec.png,] calib.txt``.
+        [disp1GT.pfm,] mask0nocc.png, [mask0spec.png, mask1spec.png,] calib.txt`` (``disp0.pfm``,
+        ``disp1.pfm`` with ``layout="2014"``).
 
     Examples
     --------
@@ -269,7 +284,13 @@ def write_middlebury(
     ['im0.png', 'im1.png', 'im1E.png', 'im1L.png', 'disp0GT.pfm', 'mask0nocc.png', 'calib.txt']
     >>> s.disp_left[0].tolist(), s.meta["calib"]["vmax"]
     ([1.0, 2.0, inf], 3)
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     files = write_middlebury(out, left=img, right=img, disp_left=d, disp_right=d,
+    ...                              mask_left=mask, calib=cal, layout="2014")
+    >>> [f.name for f in files if f.suffix == ".pfm"]
+    ['disp0.pfm', 'disp1.pfm']
     """
+    gt_left, gt_right = GT_FILES[check_choice(layout, "layout", GT_FILES)]
     left, right = check_stereo_images(left, right)
     shape = left.shape[:2]
     mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)
@@ -296,10 +317,10 @@ def write_middlebury(
         # a variant not rendered: a documented copy of im1
         out / "im1E.png": im1 if right_exposure is None else encode_png(right_exposure),
         out / "im1L.png": im1 if right_lighting is None else encode_png(right_lighting),
-        out / "disp0GT.pfm": encode_pfm(disp0),
+        out / gt_left: encode_pfm(disp0),
     }
     if disp1 is not None:
-        files[out / "disp1GT.pfm"] = encode_pfm(disp1)
+        files[out / gt_right] = encode_pfm(disp1)
     files[out / "mask0nocc.png"] = encode_png(mask_left)
     for name, m in zip(("mask0spec.png", "mask1spec.png"), highlights):
         files[out / name] = encode_png(m)

@@ -29,7 +29,8 @@ __all__ = ["dataset"]
 @address_option
 @click.option("--format", "fmt", default="middlebury", show_default=True,
               type=LazyChoice("synth.formats:DATASET_FORMATS"),
-              help="Sample folders (middlebury, kitti) or tar shards (webdataset).")
+              help="Sample folders (middlebury: MiddEval3, middlebury2014: the 2014 scene "
+                   "archives, kitti) or tar shards (webdataset).")
 @click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
               help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
 @click.option("--disp-encoding", "disp_encoding", default=None,

@@ -24,20 +24,15 @@ from pathlib import Path
 
 from synth._json import json_bytes
 from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
-                                  STAGING, check_layout, dataset_format, record_path, sample_dir,
-                                  sample_parent)
+                                  check_layout, dataset_format, record_path, sample_dir,
+                                  sample_parent, tools_root)
 from synth.dataset.manifest import manifest_bytes, read_manifest
 from synth.dataset.shards import read_index, sha256
 from synth.dataset.storage import dataset_path
-from synth.formats import KITTI_ROOT
 
 __all__ = ["completion_record", "sample_problems", "verify_dataset"]
 
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
-
-
-#: The folder of each format that holds every file of its samples (and nothing else).
-_TOOLS_ROOT = {"middlebury": MIDDEVAL_ROOT, "kitti": KITTI_ROOT, "webdataset": STAGING}
 
 
 def _shard_problems(root: Path, shards: list[dict], checksums: bool) -> list[str]:
@@ -155,11 +150,11 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
             listed |= {p.relative_to(root).as_posix() for p in folder.rglob("*")}
     if fmt == "middlebury":
         listed.add(f"{MIDDEVAL_ROOT}/{SCENE_LIST}")
-    tools_root = root / _TOOLS_ROOT[fmt]
-    if tools_root.is_dir():  # every file under the tools' folder belongs to a sample's record
+    tools = tools_root(root, fmt)
+    if tools.is_dir():  # every file under the tools' folder belongs to a sample's record
         problems += [f"{rel}: extra file (no sample's record lists it)"
                      for rel in (p.relative_to(root).as_posix()
-                                 for p in sorted(tools_root.rglob("*")) if p.is_file())
+                                 for p in sorted(tools.rglob("*")) if p.is_file())
                      if rel not in listed]
     if (root / RECORDS).is_dir():
         problems += [f"{RECORDS}/{p.name}: record of no sample folder (sample "
@@ -170,7 +165,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
                              and int(p.stem) in folders)]
     for entry in sorted(root.iterdir()):
         if entry.name in METADATA or (entry.is_dir() and entry.name in (
-                RECORDS, tools_root.name)) or entry.name in {s["name"] for s in shards}:
+                RECORDS, tools.name)) or entry.name in {s["name"] for s in shards}:
             continue
         if _TMP_DIR.match(entry.name):
             problems.append(f"{entry.name}: stale temporary directory of an interrupted run "

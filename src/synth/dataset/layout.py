@@ -8,19 +8,22 @@ Layout 2 (this version)::
       MiddEval3/                                              fmt="middlebury"
         official_train.txt        every complete sample's name, one a line
         trainingF/000000/         im0.png im1.png disp0GT.pfm ... scene.json sample.json
+      2014/                                                   fmt="middlebury2014"
+        000000/                   im0.png im1.png im1E.png im1L.png disp0.pfm ... sample.json
       training/                                               fmt="kitti"
         image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/ calib_cam_to_cam/
         samples/000000/           scene.json sample.json
 
 ``MiddEval3/trainingF/<scene>/`` and ``MiddEval3/official_train.txt`` are where RAFT-Stereo's
 ``Middlebury(root, split="F")`` looks, and ``trainingF/`` is what MiddEval3's ``runeval F`` walks
-when the SDK is unpacked into ``MiddEval3/``; ``training/image_2`` is RAFT-Stereo's and the KITTI
-devkit's root. Nothing of stereoforge's own dataset metadata (header, manifests, lock, completion
-records) sits in those folders; a sample folder holds its own ``scene.json`` and ``sample.json``
-beside the files the tools read, which they ignore. Layout 1 (stereoforge before this version) put
-the sample folders ``000000/`` at the root, beside ``dataset.json``, with the completion record
-``000000/files.json`` inside, where the tools took them (and ``dataset.json``) for scenes:
-:func:`upgrade_dataset` converts it.
+when the SDK is unpacked into ``MiddEval3/``; ``2014/<scene>/`` is where its ``split="2014"``
+takes every entry for a scene folder of the 2014 archives (so ``2014/`` holds nothing else);
+``training/image_2`` is RAFT-Stereo's and the KITTI devkit's root. Nothing of stereoforge's own
+dataset metadata (header, manifests, lock, completion records) sits in those folders; a sample
+folder holds its own ``scene.json`` and ``sample.json`` beside the files the tools read, which
+they ignore. Layout 1 (stereoforge before this version) put the sample folders ``000000/`` at the
+root, beside ``dataset.json``, with the completion record ``000000/files.json`` inside, where the
+tools took them (and ``dataset.json``) for scenes: :func:`upgrade_dataset` converts it.
 """
 
 from __future__ import annotations
@@ -37,16 +40,19 @@ from synth._json import json_bytes, read_json_object
 from synth.dataset.storage import FsPath, dataset_path, write_bytes
 from synth.formats import KITTI_ROOT
 
-__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "KITTI_TRAINING",
-           "KITTI_SAMPLES",
+__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "MIDDLEBURY_2014",
+           "KITTI_TRAINING", "KITTI_SAMPLES",
            "STAGING", "RECORDS", "SAMPLE_DIR", "METADATA", "sample_parent", "sample_dir", "sample_dirs",
-           "record_path", "dataset_format", "check_layout", "write_scene_list", "upgrade_dataset"]
+           "tools_root", "record_path", "dataset_format", "check_layout", "write_scene_list",
+           "upgrade_dataset"]
 
 #: Version of the directory layout, ``layout`` in ``dataset.json`` (absent: layout 1).
 LAYOUT_VERSION = 2
 #: The MiddEval3 root of a Middlebury-format dataset, and its scene folder inside it.
 MIDDEVAL_ROOT = "MiddEval3"
 MIDDEVAL_SCENES = f"{MIDDEVAL_ROOT}/trainingF"
+#: The scene folders of a ``middlebury2014`` dataset (RAFT-Stereo's ``root/2014/*``).
+MIDDLEBURY_2014 = "2014"
 #: The KITTI root of a KITTI-format dataset (``image_2/`` ...), and its sample folders
 #: (scene.json, sample.json) inside it.
 KITTI_TRAINING = KITTI_ROOT
@@ -63,7 +69,11 @@ _SAMPLE_NAME = SAMPLE_DIR
 _LEGACY_RECORD = "files.json"
 #: Samples of a ``webdataset`` dataset not yet in a complete shard (:mod:`synth.dataset.shards`).
 STAGING = ".staging"
-_PARENTS = {"middlebury": MIDDEVAL_SCENES, "kitti": KITTI_SAMPLES, "webdataset": STAGING}
+_PARENTS = {"middlebury": MIDDEVAL_SCENES, "middlebury2014": MIDDLEBURY_2014,
+            "kitti": KITTI_SAMPLES, "webdataset": STAGING}
+#: The folder of each format that holds every file of its samples (and nothing else).
+_TOOLS_ROOTS = {"middlebury": MIDDEVAL_ROOT, "middlebury2014": MIDDLEBURY_2014,
+                "kitti": KITTI_TRAINING, "webdataset": STAGING}
 
 
 def _root(root: str | Path | FsPath) -> Path | FsPath:
@@ -80,8 +90,15 @@ def sample_parent(root: str | Path, fmt: str) -> Path:
 
 
 def sample_dir(root: str | Path, fmt: str, index: int) -> Path:
-    """The folder of sample ``index``: ``MiddEval3/trainingF/NNNNNN`` or ``training/samples/NNNNNN``."""
+    """The folder of sample ``index``: ``MiddEval3/trainingF/NNNNNN``, ``2014/NNNNNN`` or
+    ``training/samples/NNNNNN``."""
     return sample_parent(root, fmt) / f"{int(index):06d}"
+
+
+def tools_root(root: str | Path, fmt: str) -> Path:
+    """The folder of a dataset of format ``fmt`` that the tools read (``MiddEval3``, ``2014``,
+    ``training``; ``.staging`` of ``webdataset``): it holds the files of its samples only."""
+    return _root(root) / _TOOLS_ROOTS[fmt]
 
 
 def record_path(root: str | Path, index: int) -> Path:
@@ -90,7 +107,8 @@ def record_path(root: str | Path, index: int) -> Path:
 
 
 def dataset_format(root: str | Path) -> str:
-    """The format (``middlebury`` or ``kitti``) named by ``root/dataset.json``.
+    """The format (``middlebury``, ``middlebury2014``, ``kitti``, ``webdataset``) named by
+    ``root/dataset.json``.
 
     Raises :exc:`DatasetError` when there is no ``dataset.json`` or it names another format.
     """

@@ -26,6 +26,7 @@ from stereoforge.validation import check_choice, check_real
 from synth._json import read_json_object
 from synth.dataset.layout import KITTI_TRAINING, check_layout, sample_dir
 from synth.dataset.manifest import MODIFIED_FIX, read_manifest
+from synth.formats import FORMATS, MIDDLEBURY_LAYOUTS
 
 __all__ = ["StereoDataset", "SPLITS", "is_validation"]
 
@@ -80,7 +81,7 @@ class StereoDataset:
     Parameters
     ----------
     root : str or Path
-        The dataset directory (``--format middlebury`` or ``kitti``).
+        The dataset directory (``--format middlebury``, ``middlebury2014`` or ``kitti``).
     split : {"all", "train", "val"}
         ``val``: the samples whose seed falls in the first ``val_fraction`` of the seed range;
         ``train``: the others.
@@ -105,10 +106,11 @@ class StereoDataset:
       ground-truth disparity; ``mask0nocc.png`` 128, or valid in ``disp_occ_0`` only);
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
-    - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm``), and the
-      optional ground truth of :mod:`synth.ground_truth`: ``depth`` ((H, W) float32 metres),
-      ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16), ``semantic`` ((H, W)
-      uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels hidden in the left).
+    - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm`` or
+      ``disp1.pfm``), and the optional ground truth of :mod:`synth.ground_truth`: ``depth``
+      ((H, W) float32 metres), ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16),
+      ``semantic`` ((H, W) uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels
+      hidden in the left).
 
     Raises
     ------
@@ -141,9 +143,9 @@ class StereoDataset:
         check_layout(self.root)
         header = read_json_object(header_path, what="dataset header", fix=MODIFIED_FIX)
         self.format = header.get("format")
-        if self.format not in ("middlebury", "kitti"):
+        if self.format not in FORMATS:
             raise DatasetError(f"{header_path}: format {self.format!r} has no sample folders; "
-                               "StereoDataset reads the middlebury and kitti formats (read "
+                               f"StereoDataset reads the {', '.join(FORMATS)} formats (read "
                                "webdataset shards with webdataset.WebDataset)")
         self.split, self.val_fraction = split, float(val_fraction)
         self._seeds: dict[int, int] = {}
@@ -170,7 +172,7 @@ class StereoDataset:
         index = self.indices[int(item)]
         folder = sample_dir(self.root, self.format, index)
         extra: dict[str, Any] = {}
-        if self.format == "middlebury":
+        if self.format in MIDDLEBURY_LAYOUTS:
             s = load_middlebury_2014(folder)
             if s.disp_right is not None:
                 extra["disp_right"] = s.disp_right.astype(np.float32, copy=False)

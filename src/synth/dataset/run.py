@@ -8,6 +8,7 @@ Layout of a dataset directory ``out/``::
     MiddEval3/trainingF/000000/   sample 0: im0.png im1.png disp0GT.pfm ... calib.txt
                         scene.json sample.json [preview.png]          (fmt="middlebury")
     MiddEval3/official_train.txt  the complete samples' names (RAFT-Stereo's Middlebury loader)
+    2014/000000/        sample 0 as a 2014 scene archive: disp0.pfm ... (fmt="middlebury2014")
     training/samples/000000/      scene.json sample.json; the images go to  (fmt="kitti")
     training/image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/   000000_10.png ...
     training/calib_cam_to_cam/                                    000000.txt
@@ -199,7 +200,9 @@ def run_dataset(
         joined before ``out`` is made or opened: an address that does not answer, or fails
         Ray's handshake, raises :class:`~stereoforge.errors.BackendError` and leaves no folder
         (and an existing dataset as it was).
-    fmt : {"middlebury", "kitti", "webdataset"}
+    fmt : {"middlebury", "middlebury2014", "kitti", "webdataset"}
+        ``middlebury``: MiddEval3 scene folders, ``middlebury2014``: the 2014 scene archives'
+        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames (:mod:`synth.dataset.layout`);
         ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
     progress : bool
         Show a progress bar (stderr).

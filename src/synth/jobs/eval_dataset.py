@@ -1,11 +1,12 @@
 """``stereoforge eval-dataset``: score any matcher on a dataset folder or a study's kept pairs.
 
 The pairs are read through the dataset's manifest (:func:`synth.dataset.manifest.read_manifest`:
-every ``MiddEval3/trainingF/NNNNNN/sample.json``, or ``training/samples/NNNNNN/sample.json``), so
-a folder of ``stereoforge dataset`` (``--format middlebury`` or ``kitti``, as its
-``dataset.json`` says) and the ``pairs/`` folder of ``stereoforge study --keep-pairs`` (or the
-study folder itself) all work. A Middlebury sample folder is a MiddEval3 scene (``im0.png``,
-``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``); a KITTI sample is frame ``NNNNNN_10`` of
+every ``MiddEval3/trainingF/NNNNNN/sample.json``, ``2014/NNNNNN/sample.json`` or
+``training/samples/NNNNNN/sample.json``), so a folder of ``stereoforge dataset`` (``--format
+middlebury``, ``middlebury2014`` or ``kitti``, as its ``dataset.json`` says) and the ``pairs/``
+folder of ``stereoforge study --keep-pairs`` (or the study folder itself) all work. A Middlebury
+sample folder is a MiddEval3 scene (``im0.png``, ``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``;
+the ground truth is ``disp0.pfm`` in the 2014 layout); a KITTI sample is frame ``NNNNNN_10`` of
 ``training/`` (``image_2``, ``image_3``, ``disp_occ_0``, ``disp_noc_0``: the regions' occluded
 pixels are those with ``disp_occ_0`` but no ``disp_noc_0``). Regions: the ``mask_<region>.png``
 files where present (validate's pairs), else ``all``, ``nonocc`` and ``occluded``.
@@ -40,8 +41,9 @@ def _root(folder: Path) -> tuple[Path, list[dict]]:
             records = read_manifest(root)
             if records:
                 return root, records
-    raise DatasetError(f"{folder}: no samples (MiddEval3/trainingF/NNNNNN/sample.json, or "
-                       "training/samples/NNNNNN/sample.json) here or under pairs/; pass a "
+    raise DatasetError(f"{folder}: no samples (MiddEval3/trainingF/NNNNNN/sample.json, "
+                       "2014/NNNNNN/sample.json or training/samples/NNNNNN/sample.json) here or "
+                       "under pairs/; pass a "
                        "dataset folder (stereoforge dataset) or a study folder made with "
                        "--keep-pairs")
 
@@ -54,9 +56,9 @@ def _load(root: Path, fmt: str, rec: dict) -> tuple:
 
     import numpy as np
 
-    from matcher.io import load_kitti_2015, read_calib, read_image, read_pfm
+    from matcher.io import GT_FILES, load_kitti_2015, read_calib, read_image, read_pfm
     from synth.dataset.layout import sample_dir
-    from synth.formats import KITTI_ROOT
+    from synth.formats import KITTI_ROOT, MIDDLEBURY_LAYOUTS
 
     index = rec["index"]
     try:
@@ -69,7 +71,8 @@ def _load(root: Path, fmt: str, rec: dict) -> tuple:
             return s.left, s.right, s.disp_left, occ, lambda: 16 * math.ceil((vmax + 1) / 16), None
         sample = sample_dir(root, fmt, index)
         left, right = read_image(sample / "im0.png"), read_image(sample / "im1.png")
-        gt, occ = read_pfm(sample / "disp0GT.pfm"), read_image(sample / "mask0nocc.png")
+        gt = read_pfm(sample / GT_FILES[MIDDLEBURY_LAYOUTS[fmt]][0])
+        occ = read_image(sample / "mask0nocc.png")
         return left, right, gt, occ, lambda: int(read_calib(sample / "calib.txt")["ndisp"]), sample
     except FileNotFoundError as exc:
         raise DatasetError(f"{root}: sample {index}: {exc.filename} is missing; eval-dataset "
@@ -92,6 +95,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
     from synth.dataset.layout import dataset_format
+    from synth.formats import FORMATS
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
@@ -99,10 +103,10 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
         root, records = _root(folder)
         # a dataset names its layout; a study's pairs are MiddEval3 folders
         fmt = dataset_format(root) if (root / "dataset.json").is_file() else "middlebury"
-        if fmt not in ("middlebury", "kitti"):
+        if fmt not in FORMATS:
             raise DatasetError(f"{root} is a {fmt} dataset (samples packed in tar shards); "
                                "eval-dataset reads sample folders: write the dataset with "
-                               "--format middlebury or kitti")
+                               f"--format {', '.join(FORMATS)}")
     except BaseException:
         m.close()
         raise
