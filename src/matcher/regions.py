@@ -25,8 +25,9 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["REGIONS", "TEXTURELESS_ENERGY", "TEXTURELESS_WINDOW", "DISCONTINUITY_JUMP",
-           "DISCONTINUITY_RADIUS", "THRESHOLDS", "SCORE_NAMES", "region_masks", "region_scores"]
+__all__ = ["REGIONS", "LR_TOLERANCE", "TEXTURELESS_ENERGY", "TEXTURELESS_WINDOW", "DISCONTINUITY_JUMP",
+           "DISCONTINUITY_RADIUS", "THRESHOLDS", "SCORE_NAMES", "occlusion_mask", "region_masks",
+           "region_scores"]
 
 REGIONS = ("all", "nonocc", "occluded", "textureless", "discontinuity")
 #: Mean squared gradient (grey levels^2 per pixel^2) below which a pixel is textureless.
@@ -39,6 +40,9 @@ DISCONTINUITY_JUMP = 1.0
 DISCONTINUITY_RADIUS = 3
 #: Bad-pixel thresholds of ``bad_0_5``, ``bad_1``, ``bad_2``, ``bad_4``.
 THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
+#: Largest ``|d_L(x) - d_R(x - d_L(x))|`` (pixels) of a pixel visible in both views, when a
+#: scene has no occlusion mask and :func:`occlusion_mask` checks its two ground truths.
+LR_TOLERANCE = 1.0
 SCORE_NAMES = ("bad_0_5", "bad_1", "bad_2", "bad_4", "avgerr", "rms", "a50", "a90", "a99",
                "coverage")
 
@@ -71,6 +75,59 @@ def _depth_edges(gt: np.ndarray, has_gt: np.ndarray, jump: float) -> np.ndarray:
         edges[tuple(a)] |= step & va
         edges[tuple(b)] |= step & vb
     return edges
+
+
+def occlusion_mask(disp_left: np.ndarray, disp_right: np.ndarray | None = None, *,
+                   tolerance: float = LR_TOLERANCE) -> np.ndarray:
+    """An occlusion mask (255 visible in both views, 128 occluded, 0 no ground truth) for a
+    scene that ships ground truth but no mask.
+
+    With the right view's ground truth, a left pixel ``x`` is visible when its match
+    ``x - d_L(x)`` lies in the right image and the right ground truth there (nearest pixel)
+    agrees within ``tolerance``. With the left one alone, it is visible unless a pixel to its
+    right lands at or left of its match, ``min_{x' > x} (x' - d_L(x')) < x - d_L(x) + 0.5``
+    (that nearer surface covers it in the right view), and its match lies in the right image.
+
+    Parameters
+    ----------
+    disp_left : (H, W) float array
+        Left ground truth, inf or NaN where unknown.
+    disp_right : (H, W) float array, optional
+        Right ground truth (a right pixel ``x_r`` matches the left ``x_r + d_R``).
+    tolerance : float
+        Pixels, for the two-view check.
+
+    Returns
+    -------
+    (H, W) uint8 array
+
+    Examples
+    --------
+    >>> d = np.array([[1.0, 1.0, 3.0, 3.0, 1.0, 1.0]])  # x = 1 lands where x = 3 does
+    >>> occlusion_mask(d).tolist()
+    [[128, 128, 128, 255, 255, 255]]
+    """
+    gt = np.asarray(disp_left, dtype=np.float64)
+    known = np.isfinite(gt)
+    h, w = gt.shape
+    xs = np.arange(w, dtype=np.float64)[None, :]
+    target = np.where(known, xs - gt, np.inf)
+    visible = known & (target > -0.5)
+    if disp_right is not None:
+        right = np.asarray(disp_right, dtype=np.float64)
+        col = np.clip(np.rint(np.where(visible, target, 0.0)), 0, w - 1).astype(np.int64)
+        partner = np.take_along_axis(right, col, axis=1)
+        with np.errstate(invalid="ignore"):
+            visible &= np.isfinite(partner) & (np.abs(partner - gt) <= tolerance)
+    else:
+        # running minimum of x' - d(x') over x' > x, from the right
+        later = np.minimum.accumulate(target[:, ::-1], axis=1)[:, ::-1]
+        beyond = np.concatenate([later[:, 1:], np.full((h, 1), np.inf)], axis=1)
+        visible &= ~(beyond < target + 0.5)
+    out = np.zeros((h, w), dtype=np.uint8)
+    out[known] = 128
+    out[visible] = 255
+    return out
 
 
 def region_masks(gt: np.ndarray, occlusion: np.ndarray, clean_left: np.ndarray, *,

@@ -41,11 +41,17 @@ class LogProgress:
         self._clock, self._start = clock, clock()
         self._last_t, self._last_n, self._closed = self._start, initial, False
         self._step = max(1, math.ceil(LOG_FRACTION * total)) if total else None
+        self._postfix = ""
 
     def _line(self) -> str:
         done = f"{self.n}/{self.total}" if self.total else f"{self.n}"
         share = f" ({100.0 * self.n / self.total:.0f} %)" if self.total else ""
-        return f"{self.desc}: {done} {self.unit}{share}, {self._clock() - self._start:.1f} s"
+        tail = f", {self._postfix}" if self._postfix else ""
+        return f"{self.desc}: {done} {self.unit}{share}, {self._clock() - self._start:.1f} s{tail}"
+
+    def set_postfix_str(self, text: str, refresh: bool = True) -> None:
+        """Text appended to the next lines (tqdm's method of the same name)."""
+        self._postfix = str(text)
 
     def update(self, n: int = 1) -> None:
         self.n += n

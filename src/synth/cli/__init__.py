@@ -10,6 +10,7 @@ with ``stereoforge --debug``. Nothing in the library imports this package.
 - :mod:`synth.cli.matching` — ``match``, ``eval``, ``eval-dataset``
 - :mod:`synth.cli.jobs` — ``paper``, ``study``, ``golden``
 - :mod:`synth.cli.validating` — ``validate``
+- :mod:`synth.cli.learning` — ``train``
 - :mod:`synth.cli.bench` — ``bench render|match|paper|dataset|validate``
 """
 
@@ -23,6 +24,7 @@ from synth.cli.bench import bench
 from synth.cli.datasets import dataset
 from synth.cli.errors import BoundaryGroup, set_debug
 from synth.cli.jobs import golden, paper, study
+from synth.cli.learning import train_cmd
 from synth.cli.matching import eval_cmd, eval_dataset_cmd, match_cmd
 from synth.cli.rendering import demo, presets, render
 from synth.cli.validating import validate
@@ -39,7 +41,7 @@ def main() -> None:
 
 
 for _command in (bench, dataset, demo, eval_cmd, eval_dataset_cmd, golden, match_cmd, paper, presets, render, study,
-                 validate):
+                 train_cmd, validate):
     main.add_command(_command)
 
 

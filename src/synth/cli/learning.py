@@ -1,0 +1,61 @@
+"""``stereoforge train``: the reference learned matcher on stereoforge datasets and real scenes."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from synth.cli.options import note
+
+__all__ = ["train_cmd"]
+
+
+@click.command("train")
+@click.argument("datasets", nargs=-1, required=True, metavar="DATASET [DATASET ...]")
+@click.option("--out", "out", required=True, metavar="MODEL.pt",
+              help="Model file to write; MODEL.csv (losses) and MODEL.pt.ckpt go beside it.")
+@click.option("--minutes", default=None, type=float,
+              help="Wall-time budget, data loading included (default 10 unless --steps).")
+@click.option("--steps", default=None, type=click.IntRange(min=1),
+              help="Step budget instead of --minutes (reproducible: --resume gives the same weights).")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))
+@click.option("--device", default="auto", show_default=True,
+              help="auto (CUDA when torch sees a GPU), cpu or cuda[:N].")
+@click.option("--resume", is_flag=True, help="Continue from MODEL.pt.ckpt (same options).")
+@click.option("--overwrite", is_flag=True, help="Start afresh over an existing model or checkpoint.")
+@click.option("--workers", default=2, show_default=True, type=click.IntRange(min=0),
+              help="DataLoader worker processes (0: load in this process).")
+@click.option("--threads", default=None, type=click.IntRange(min=1),
+              help="torch threads of the network (default: torch's choice, one per core).")
+@click.option("--checkpoint-minutes", default=2.0, show_default=True, type=click.FloatRange(min=0.0),
+              help="Wall time between checkpoints.")
+@click.option("--channels", default=32, show_default=True, type=click.IntRange(min=1),
+              help="Feature maps per layer.")
+@click.option("--layers", default=4, show_default=True, type=click.IntRange(min=1),
+              help="3x3 convolutions (patch side 2*layers+1).")
+def train_cmd(datasets, out, minutes, steps, seed, device, resume, overwrite, workers, threads,
+              checkpoint_minutes, channels, layers) -> None:
+    """Train the reference learned matcher (MC-CNN-fast style) on DATASET(s).
+
+    DATASET: a stereoforge dataset folder, or real scenes with ground truth:
+    middlebury:DIR[:DIVISOR], kitti:DIR, skimage:motorcycle (a plain Middlebury or KITTI folder
+    is recognised too). Use the model anywhere a MATCHER is taken: learned:MODEL.pt.
+    """
+    from synth.jobs.train import TrainConfig, TrainInterrupted, train
+
+    if minutes is None and steps is None:
+        minutes = 10.0
+    cfg = TrainConfig(sources=tuple(datasets), out=out, minutes=minutes, steps=steps, seed=seed,
+                      channels=channels, layers=layers)
+    try:
+        result = train(cfg, device=device, resume=resume, overwrite=overwrite, workers=workers,
+                       threads=threads, checkpoint_minutes=checkpoint_minutes, log=note)
+    except TrainInterrupted as exc:
+        note(str(exc))
+        sys.exit(130)
+    val = "" if result.val_loss is None else f", validation loss {result.val_loss:.4f}"
+    click.echo(f"trained {result.steps} steps ({result.patches:,} patches) in "
+               f"{result.seconds:.1f} s: train loss {result.train_loss:.4f}{val}; default "
+               f"aggregation {result.aggregate}x{result.aggregate}; wrote {result.model} and "
+               f"{result.csv}")

@@ -1,0 +1,476 @@
+"""``stereoforge train``: the reference network on stereoforge datasets and real scenes.
+
+:func:`train` runs the loop: a torch ``DataLoader`` with worker processes over
+:class:`synth.jobs.train.patches.PatchBatches` (built on :class:`synth.StereoDataset` and the
+readers of :mod:`matcher.io`), Adam on the hinge loss of :mod:`matcher.learned.loss`, and
+
+- a budget of ``steps`` or of ``minutes`` of wall time counted from the start of the job (data
+  loading included);
+- the validation loss every :data:`ROW_STEPS` steps on fixed validation batches, and one CSV row
+  per range of steps beside the model (``MODEL.csv``: train and validation loss, patches/s);
+- a checkpoint (``MODEL.pt.ckpt``, atomic) every ``checkpoint_minutes``, on Ctrl-C or SIGTERM
+  (after the step in progress) and at the end. ``resume=True`` continues from it: on the CPU the
+  batches of step ``k`` depend only on ``(seed, k)`` and deterministic algorithms are on, so a
+  run resumed after a kill ends with the weights an uninterrupted one ends with (``steps``
+  budget; a ``minutes`` budget stops where the clock says);
+- at the end, the box aggregation the model uses by default chosen on the validation pairs
+  (smallest bad-3 among :data:`AGGREGATES`), then the model file, atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from matcher.io import atomic_write_bytes
+from matcher.learned import (
+    Architecture,
+    PatchNet,
+    hinge_loss,
+    match_learned,
+    model_bytes,
+    pair_scores,
+    resolve_device,
+)
+from matcher.learned.model import LearnedModel
+from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
+from synth.jobs.train.patches import CROP, CROPS, Crop, PatchBatches
+from synth.jobs.train.sources import TrainSource, open_sources
+
+__all__ = ["AGGREGATES", "CSV_COLUMNS", "ROW_STEPS", "TrainConfig", "TrainInterrupted",
+           "TrainResult", "train"]
+
+#: Steps per CSV row (and per validation loss).
+ROW_STEPS = 100
+#: Validation batches the validation loss averages over.
+VAL_BATCHES = 8
+#: Box sides (1 = none) tried for the model's default aggregation.
+AGGREGATES = (1, 3, 5, 7, 9, 11, 13)
+#: Validation pairs the aggregation is chosen on.
+SELECT_PAIRS = 4
+CSV_COLUMNS = ("step_from", "step_to", "seconds", "train_loss", "val_loss", "patches",
+               "patches_per_s", "lr")
+_CKPT_FORMAT = "stereoforge-train-checkpoint"
+
+
+class TrainInterrupted(StereoforgeError):
+    """Ctrl-C or SIGTERM: the checkpoint is written; ``--resume`` continues."""
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything a run is defined by (what a resumed run must repeat).
+
+    ``minutes`` and ``steps``: exactly one is set. ``lr`` drops tenfold for the last fifth of
+    the budget.
+    """
+
+    sources: tuple[str, ...]
+    out: str
+    minutes: float | None = None
+    steps: int | None = None
+    seed: int = 0
+    channels: int = 32
+    layers: int = 4
+    crops: int = CROPS
+    crop: int = CROP
+    lr: float = 1e-3
+    val_fraction: float = 0.1
+
+    def identity(self) -> dict:
+        """What a checkpoint must match to be resumed (the output path aside)."""
+        d = asdict(self)
+        d.pop("out")
+        d["sources"] = list(d["sources"])
+        return d
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a run made."""
+
+    model: Path
+    csv: Path
+    checkpoint: Path
+    steps: int
+    patches: int
+    seconds: float
+    train_loss: float
+    val_loss: float | None
+    aggregate: int
+    rows: list = field(default_factory=list)
+
+
+def _identity_collate(batch):
+    return batch
+
+
+def _worker_init(_worker_id: int) -> None:
+    # Ctrl-C and SIGTERM are the main process's to handle: it stops after the step in
+    # progress, writes the checkpoint and shuts the workers down
+    from synth.dataset.engine import die_with_parent
+
+    die_with_parent()  # a killed trainer leaves no worker behind
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def _tensors(crop: Crop, device: torch.device) -> tuple:
+    t = lambda a: torch.from_numpy(np.ascontiguousarray(a)).to(device)  # noqa: E731
+    return (t(crop.left)[None, None], t(crop.right)[None, None], t(crop.ys), t(crop.xs),
+            t(crop.x_pos), t(crop.x_neg))
+
+
+def _batch_loss(net: PatchNet, batch: list[Crop], device: torch.device
+                ) -> tuple[torch.Tensor | None, int]:
+    """Mean hinge loss over every patch of a batch, and the number of patches."""
+    if not batch:
+        return None, 0
+    lefts = torch.cat([torch.from_numpy(np.ascontiguousarray(c.left))[None, None]
+                       for c in batch]).to(device)
+    fl = net(lefts)  # every left block has the same size: one pass
+    pos, neg = [], []
+    for i, crop in enumerate(batch):
+        _, right, ys, xs, xp, xn = _tensors(crop, device)
+        sp, sn = pair_scores(fl[i], net(right)[0], ys, xs, xp, xn)
+        pos.append(sp)
+        neg.append(sn)
+    s_pos, s_neg = torch.cat(pos), torch.cat(neg)
+    return hinge_loss(s_pos, s_neg), int(s_pos.numel())
+
+
+def _loader(batches: PatchBatches, start: int, stop: int, workers: int):
+    from torch.utils.data import DataLoader
+
+    kwargs = {}
+    if workers > 0:
+        # spawned, not forked: a fork of this process (torch's and OpenCV's thread pools
+        # running) can deadlock in the child, as cv2.setNumThreads did in a forked worker
+        kwargs = {"num_workers": workers, "worker_init_fn": _worker_init, "prefetch_factor": 4,
+                  "multiprocessing_context": "spawn", "persistent_workers": False}
+    return DataLoader(batches, batch_size=None, sampler=range(start, stop),
+                      collate_fn=_identity_collate, **kwargs)
+
+
+def _check_config(cfg: TrainConfig) -> None:
+    if (cfg.minutes is None) == (cfg.steps is None):
+        raise ParameterError("train: give exactly one budget, --minutes M or --steps N")
+    if cfg.minutes is not None and not (isinstance(cfg.minutes, (int, float)) and cfg.minutes > 0):
+        raise ParameterError(f"--minutes: expected a number > 0, got {cfg.minutes!r}")
+    if cfg.steps is not None and not (isinstance(cfg.steps, int) and cfg.steps > 0):
+        raise ParameterError(f"--steps: expected an integer > 0, got {cfg.steps!r}")
+    if not str(cfg.out).endswith(".pt"):
+        raise ParameterError(f"--out: expected a .pt model file, got {cfg.out!r}")
+    if cfg.channels < 1 or cfg.layers < 1 or cfg.crops < 1 or cfg.crop < 4:
+        raise ParameterError("train: channels, layers and crops must be >= 1, crop >= 4")
+
+
+def _paths(out: str) -> tuple[Path, Path, Path]:
+    model = Path(out)
+    return model, model.with_suffix(".csv"), Path(f"{model}.ckpt")
+
+
+def _csv_bytes(rows: list[dict]) -> bytes:
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return buf.getvalue().encode()
+
+
+@dataclass
+class _State:
+    """What a checkpoint holds besides the weights and the optimiser."""
+
+    step: int = 0
+    seconds: float = 0.0
+    patches: int = 0
+    rows: list = field(default_factory=list)
+    row_loss: float = 0.0
+    row_count: int = 0
+    row_patches: int = 0
+    row_seconds: float = 0.0
+
+
+def _save_checkpoint(path: Path, cfg: TrainConfig, sources: list[TrainSource], net: PatchNet,
+                     opt: torch.optim.Optimizer, state: _State, finished: bool) -> None:
+    buf = io.BytesIO()
+    torch.save({"format": _CKPT_FORMAT, "version": 1, "config": cfg.identity(),
+                "sources": [s.header() for s in sources], "state": asdict(state),
+                "finished": finished,
+                "net": {k: v.detach().to("cpu") for k, v in net.state_dict().items()},
+                "opt": opt.state_dict()}, buf)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def _load_checkpoint(path: Path, cfg: TrainConfig, sources: list[TrainSource]) -> dict:
+    if not path.is_file():
+        raise DatasetError(f"--resume: no checkpoint {path}; start without --resume")
+    try:
+        blob = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - any unreadable archive
+        raise DatasetError(f"{path}: not a readable checkpoint ({type(exc).__name__}); remove "
+                           "it and start again without --resume") from None
+    if not isinstance(blob, dict) or blob.get("format") != _CKPT_FORMAT:
+        raise DatasetError(f"{path}: not a stereoforge training checkpoint; remove it and start "
+                           "again without --resume")
+    want, got = cfg.identity(), blob.get("config", {})
+    diff = [k for k in want if want[k] != got.get(k)]
+    if diff:
+        k = diff[0]
+        raise DatasetError(f"--resume: the checkpoint {path} was made with {k} = {got.get(k)!r}, "
+                           f"this run asks for {want[k]!r}; repeat the first run's options")
+    hashes = [(s["spec"], s["hash"]) for s in blob.get("sources", [])]
+    if hashes != [(s.spec, s.hash) for s in sources]:
+        raise DatasetError(f"--resume: the training data changed since the checkpoint {path} "
+                           "(another hash); start again without --resume")
+    return blob
+
+
+def _val_loss(net: PatchNet, batches: list[list[Crop]], device: torch.device) -> float | None:
+    if not batches:
+        return None
+    total, count = 0.0, 0
+    with torch.no_grad():
+        for batch in batches:
+            loss, n = _batch_loss(net, batch, device)
+            if loss is not None:
+                total += float(loss) * n
+                count += n
+    return total / count if count else None
+
+
+def _search_range(disp: np.ndarray, visible: np.ndarray, width: int) -> int:
+    top = float(disp[visible].max()) if visible.any() else 16.0
+    return int(min(width - 1, max(4, 4 * math.ceil(math.ceil(1.1 * top + 1) / 4))))
+
+
+def _choose_aggregate(model: LearnedModel, sources: list[TrainSource], device: torch.device
+                      ) -> tuple[int, list]:
+    """The box side of :data:`AGGREGATES` with the smallest bad-3 (all pixels with ground truth,
+    no estimate = bad) over up to :data:`SELECT_PAIRS` validation pairs; 5 without any."""
+    from matcher.cost import aggregate_cost
+    from matcher.learned import learned_cost
+    from matcher.select import winner_takes_all
+
+    pairs = [(s, i) for s in sources for i in range(s.n_val)][:SELECT_PAIRS]
+    if not pairs:
+        return 5, []
+    bad = np.zeros(len(AGGREGATES))
+    for s, i in pairs:
+        p = s.load("val", i)
+        known = p.disp > 0
+        cost = learned_cost(model, p.left, p.right, device=device,
+                            max_disparity=_search_range(p.disp, known, p.left.shape[1]))
+        for a, size in enumerate(AGGREGATES):
+            vol = cost if size == 1 else aggregate_cost(cost, size=size)
+            est = winner_takes_all(vol, subpixel=True)
+            err = np.abs(est - p.disp)[known]
+            bad[a] += 100.0 * float(np.mean(~(err <= 3.0)))
+    bad /= len(pairs)
+    return int(AGGREGATES[int(np.argmin(bad))]), [round(float(b), 3) for b in bad]
+
+
+def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
+          overwrite: bool = False, workers: int = 2, threads: int | None = None,
+          checkpoint_minutes: float = 2.0, log: Callable[[str], None] | None = None,
+          show_progress: bool = True, stop_after_checkpoints: int | None = None) -> TrainResult:
+    """Train the reference network (see the module docstring).
+
+    Parameters
+    ----------
+    cfg : TrainConfig
+    device : {"auto", "cpu", "cuda[:N]"}
+    resume : bool
+        Continue from ``MODEL.pt.ckpt``.
+    overwrite : bool
+        Start afresh over an existing model or checkpoint.
+    workers : int
+        ``DataLoader`` worker processes (0: load in this process).
+    threads : int, optional
+        torch's threads for the network (default: torch's own choice).
+    checkpoint_minutes : float
+        Wall time between checkpoints.
+    stop_after_checkpoints : int, optional
+        For tests: act as if interrupted once this many periodic checkpoints were written.
+
+    Raises
+    ------
+    TrainInterrupted
+        After Ctrl-C / SIGTERM, once the checkpoint is written.
+    """
+    start_clock = time.monotonic()
+    say = log or (lambda _m: None)
+    _check_config(cfg)
+    model_path, csv_path, ckpt_path = _paths(cfg.out)
+    if not model_path.parent.is_dir():
+        raise FileNotFoundError(f"--out: the folder {model_path.parent} does not exist; create it")
+    if not resume and not overwrite:
+        for p in (ckpt_path, model_path):
+            if p.exists():
+                hint = "add --resume to continue it" if p == ckpt_path else "choose another --out"
+                raise DatasetError(f"{p} exists; {hint}, or --overwrite to start afresh")
+    dev = resolve_device(device)
+    sources = open_sources(cfg.sources, val_fraction=cfg.val_fraction)
+    blob = _load_checkpoint(ckpt_path, cfg, sources) if resume else None
+    if blob is not None and blob.get("finished") and model_path.is_file():
+        raise DatasetError(f"--resume: {model_path} is finished ({blob['state']['step']} steps); "
+                           "train a new model with another --out")
+    if threads is not None:
+        torch.set_num_threads(int(threads))
+    if dev.type == "cpu":
+        torch.use_deterministic_algorithms(True)
+    torch.manual_seed(cfg.seed)
+    arch = Architecture(channels=cfg.channels, layers=cfg.layers)
+    net = PatchNet(arch).to(dev)
+    opt = torch.optim.Adam(net.parameters(), lr=cfg.lr)
+    state = _State()
+    if blob is not None:
+        net.load_state_dict(blob["net"])
+        opt.load_state_dict(blob["opt"])
+        state = _State(**blob["state"])
+        say(f"resuming {ckpt_path} at step {state.step} ({state.seconds:.0f} s trained)")
+    n_train = sum(s.n_train for s in sources)
+    n_val = sum(s.n_val for s in sources)
+    say(f"training on {n_train} pairs ({', '.join(s.name for s in sources)}), validating on "
+        f"{n_val}; {arch.channels} maps x {arch.layers} layers ({arch.patch}x{arch.patch} "
+        f"patches), {cfg.crops} crops of {cfg.crop}x{cfg.crop} per step, device {dev}")
+
+    total = cfg.steps if cfg.steps is not None else 10**12
+    budget = None if cfg.minutes is None else 60.0 * cfg.minutes
+    batches = PatchBatches(sources, seed=cfg.seed, radius=arch.layers, crops=cfg.crops,
+                           size=cfg.crop)
+    val = PatchBatches(sources, seed=cfg.seed, radius=arch.layers, split="val",
+                       crops=cfg.crops, size=cfg.crop)
+    t_val = time.monotonic()
+    val_batches = [val[i] for i in range(VAL_BATCHES)] if val.pairs else []
+    say(f"{len(val_batches)} validation batches cut in {time.monotonic() - t_val:.1f} s")
+
+    stop = {"signal": None}
+    handlers = {}
+
+    def on_signal(signum, _frame):
+        stop["signal"] = signal.Signals(signum).name
+
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            handlers[sig] = signal.signal(sig, on_signal)
+    bar = None
+    loader = iter(())
+    try:
+        from synth.progress import progress
+
+        bar = progress(total=cfg.steps if cfg.steps is not None else int(budget), initial=0,
+                       desc="train", unit="step" if cfg.steps is not None else "s",
+                       enabled=show_progress)
+        last_ckpt, n_ckpt = time.monotonic(), 0
+        run_start, run_seconds0 = time.monotonic(), state.seconds
+        loader = iter(_loader(batches, state.step, total, workers)) if state.step < total else iter(())
+        while state.step < total:
+            elapsed = run_seconds0 + (time.monotonic() - run_start)
+            if budget is not None and (time.monotonic() - start_clock) + run_seconds0 >= budget:
+                break
+            if stop["signal"]:
+                break
+            progress_share = (state.step / total) if cfg.steps is not None else elapsed / budget
+            lr = cfg.lr * (0.1 if progress_share >= 0.8 else 1.0)
+            for group in opt.param_groups:
+                group["lr"] = lr
+            t0 = time.monotonic()
+            batch = next(loader)
+            loss, n = _batch_loss(net, batch, dev)
+            if loss is not None:
+                opt.zero_grad(set_to_none=True)
+                loss.backward()
+                opt.step()
+                state.row_loss += float(loss.detach()) * n
+                state.row_count += n
+            state.step += 1
+            state.patches += n
+            state.row_patches += n
+            dt = time.monotonic() - t0
+            state.row_seconds += dt
+            state.seconds = run_seconds0 + (time.monotonic() - run_start)
+            if state.step % ROW_STEPS == 0 or state.step == total:
+                v = _val_loss(net, val_batches, dev)
+                row = {"step_from": state.step - (state.step - 1) % ROW_STEPS,
+                       "step_to": state.step, "seconds": round(state.seconds, 2),
+                       "train_loss": round(state.row_loss / max(state.row_count, 1), 6),
+                       "val_loss": "" if v is None else round(v, 6),
+                       "patches": state.patches,
+                       "patches_per_s": round(state.row_patches / max(state.row_seconds, 1e-9), 1),
+                       "lr": lr}
+                state.rows.append(row)
+                state.row_loss, state.row_count, state.row_patches, state.row_seconds = 0.0, 0, 0, 0.0
+                atomic_write_bytes(csv_path, _csv_bytes(state.rows), fsync=False)
+                if bar is not None:
+                    bar.set_postfix_str(f"loss {row['train_loss']:.4f}"
+                                        + (f", val {v:.4f}" if v is not None else "")
+                                        + f", {row['patches_per_s']:.0f} patches/s")
+            if bar is not None:
+                if cfg.steps is not None:
+                    bar.update(1)
+                else:
+                    bar.update(int(state.seconds) - bar.n) if int(state.seconds) > bar.n else None
+            if time.monotonic() - last_ckpt >= 60.0 * checkpoint_minutes:
+                _save_checkpoint(ckpt_path, cfg, sources, net, opt, state, finished=False)
+                last_ckpt, n_ckpt = time.monotonic(), n_ckpt + 1
+                if stop_after_checkpoints is not None and n_ckpt >= stop_after_checkpoints:
+                    stop["signal"] = "test stop"
+        if stop["signal"]:
+            _save_checkpoint(ckpt_path, cfg, sources, net, opt, state, finished=False)
+            raise TrainInterrupted(f"interrupted ({stop['signal']}) at step {state.step}: "
+                                   f"checkpoint {ckpt_path} written; continue with the same "
+                                   "command and --resume")
+    finally:
+        del loader  # stops the worker processes
+        if bar is not None:
+            bar.close()
+        for sig, old in handlers.items():
+            signal.signal(sig, old)
+
+    if state.row_count:  # a last partial row
+        v = _val_loss(net, val_batches, dev)
+        state.rows.append({"step_from": state.step - (state.step - 1) % ROW_STEPS,
+                           "step_to": state.step, "seconds": round(state.seconds, 2),
+                           "train_loss": round(state.row_loss / state.row_count, 6),
+                           "val_loss": "" if v is None else round(v, 6), "patches": state.patches,
+                           "patches_per_s": round(state.row_patches / max(state.row_seconds, 1e-9), 1),
+                           "lr": opt.param_groups[0]["lr"]})
+        state.row_loss, state.row_count, state.row_patches, state.row_seconds = 0.0, 0, 0, 0.0
+    net.eval()
+    model = LearnedModel(net=net, header={})
+    aggregate, bads = _choose_aggregate(model, sources, dev)
+    last = state.rows[-1] if state.rows else {}
+    header = {
+        "inference": {"aggregate": aggregate, "lr_check": False, "subpixel": True,
+                      "aggregate_chosen_on": f"bad-3 of {min(SELECT_PAIRS, n_val)} validation "
+                                             f"pairs over {list(AGGREGATES)}: {bads}"},
+        "training": {"sources": [s.header() for s in sources], "steps": state.step,
+                     "patches": state.patches, "seconds": round(state.seconds, 1),
+                     "seed": cfg.seed, "minutes": cfg.minutes, "max_steps": cfg.steps,
+                     "crops": cfg.crops, "crop": cfg.crop, "lr": cfg.lr, "device": str(dev),
+                     "torch": torch.__version__, "threads": torch.get_num_threads(),
+                     "train_loss": last.get("train_loss"), "val_loss": last.get("val_loss")},
+    }
+    atomic_write_bytes(csv_path, _csv_bytes(state.rows), fsync=False)
+    _save_checkpoint(ckpt_path, cfg, sources, net, opt, state, finished=True)
+    atomic_write_bytes(model_path, model_bytes(net, header))
+    val_loss = last.get("val_loss")
+    return TrainResult(model=model_path, csv=csv_path, checkpoint=ckpt_path, steps=state.step,
+                       patches=state.patches, seconds=time.monotonic() - start_clock,
+                       train_loss=float(last.get("train_loss", float("nan"))),
+                       val_loss=None if val_loss in (None, "") else float(val_loss),
+                       aggregate=aggregate, rows=state.rows)

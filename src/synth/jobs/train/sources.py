@@ -1,0 +1,183 @@
+"""What ``stereoforge train`` learns from: stereoforge datasets and real scenes, as pairs with
+exact ground truth and the pixels visible in both views.
+
+A source string is one of
+
+- a stereoforge dataset folder (``stereoforge dataset``, either format with sample folders:
+  ``middlebury`` or ``kitti``), read through :class:`synth.StereoDataset`; its ``train`` split
+  is learned from, its ``val`` split gives the validation loss;
+- ``middlebury:DIR[:DIVISOR]``, ``kitti:DIR``, ``skimage:motorcycle`` — real scenes, read through
+  :func:`matcher.io.real.load_real`; a plain path to such a folder is recognised too. All of
+  their scenes are learned from (no validation split). Pixels visible in both views come from the
+  scene's own mask, else from a left-right check of its two ground truths, else from the left
+  one's ordering (:func:`matcher.regions.occlusion_mask`).
+
+Every source has a name and a hash: a dataset's config name and ``config_hash`` (from
+``dataset.json``), a real source's spec and the SHA-256 of the arrays read. They go into the
+model file's header and the checkpoint (a resumed run refuses sources that changed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from matcher.io.real import REAL_KINDS, load_real, real_scene_dirs
+from matcher.regions import occlusion_mask
+from stereoforge.errors import DatasetError
+
+__all__ = ["TrainPair", "TrainSource", "open_source", "open_sources"]
+
+
+@dataclass(frozen=True, eq=False)
+class TrainPair:
+    """One pair as the trainer uses it.
+
+    Attributes
+    ----------
+    left, right : (H, W) float32 arrays
+        Standardised grey views (:func:`matcher.learned.standardise`).
+    disp : (H, W) float32 array
+        Left ground truth, 0 where unknown (see ``visible``).
+    visible : (H, W) bool array
+        Pixels with ground truth that are visible in both views.
+    """
+
+    left: np.ndarray
+    right: np.ndarray
+    disp: np.ndarray
+    visible: np.ndarray
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in (self.left, self.right, self.disp, self.visible))
+
+
+def _pair(left: np.ndarray, right: np.ndarray, disp: np.ndarray, mask: np.ndarray) -> TrainPair:
+    from matcher.learned import standardise
+
+    known = np.isfinite(disp) & (mask == 255)
+    return TrainPair(standardise(left), standardise(right),
+                     np.where(known, disp, 0.0).astype(np.float32), known)
+
+
+@dataclass(eq=False)
+class TrainSource:
+    """One source string, opened: its pairs are loaded on demand (:meth:`load`).
+
+    Attributes
+    ----------
+    spec : str
+        As given.
+    name, hash : str
+        For the model header (see the module docstring).
+    kind : str
+        ``"dataset"`` or a real kind (``middlebury``, ``kitti``, ``skimage``).
+    n_train, n_val : int
+        Pairs in the training and validation splits.
+    """
+
+    spec: str
+    name: str
+    hash: str
+    kind: str
+    n_train: int
+    n_val: int
+    _splits: dict = field(default_factory=dict, repr=False)
+
+    def load(self, split: str, item: int) -> TrainPair:
+        """Pair ``item`` (``0 .. n_train - 1`` or ``0 .. n_val - 1``) of ``split``."""
+        data = self._splits[split]
+        if isinstance(data, list):
+            return data[item]
+        s = data[item]  # a StereoDataset's numpy dict
+        mask = np.where(s["valid"], np.where(s["occlusion"], 128, 255), 0).astype(np.uint8)
+        return _pair(s["left"], s["right"], s["disp"], mask)
+
+    def header(self) -> dict:
+        return {"spec": self.spec, "name": self.name, "hash": self.hash, "kind": self.kind,
+                "train_pairs": self.n_train, "val_pairs": self.n_val}
+
+
+def _dataset(spec: str, root: Path, val_fraction: float) -> TrainSource:
+    import json
+
+    from synth.dataset.loader import StereoDataset
+
+    everything = StereoDataset(root)  # checks the layout, the format, that samples exist
+    header = json.loads((root / "dataset.json").read_text())
+    splits: dict = {}
+    for split in ("train", "val"):
+        try:
+            splits[split] = StereoDataset(root, split=split, val_fraction=val_fraction)
+        except DatasetError:  # an empty split
+            splits[split] = []
+    if not splits["train"]:
+        raise DatasetError(f"{root}: all {len(everything)} samples are in the validation split "
+                           f"(val_fraction {val_fraction}); render more samples")
+    return TrainSource(spec, str(header.get("name", root.name)), str(header.get("config_hash", "")),
+                       "dataset", len(splits["train"]), len(splits["val"]), splits)
+
+
+def _real(spec: str) -> TrainSource:
+    samples = load_real(spec)
+    pairs, digest = [], hashlib.sha256()
+    for s in samples:
+        if not np.isfinite(s.disp_left).any():
+            raise DatasetError(f"{spec}: scene {s.name} has no ground truth; train needs "
+                               "ground-truth disparities")
+        mask = s.mask_left if s.mask_left is not None else occlusion_mask(s.disp_left,
+                                                                             s.disp_right)
+        for a in (s.left, s.right, s.disp_left, mask):
+            digest.update(np.ascontiguousarray(a).tobytes())
+        pairs.append(_pair(s.left, s.right, s.disp_left, mask))
+    return TrainSource(spec, spec, digest.hexdigest(), spec.partition(":")[0], len(pairs), 0,
+                       {"train": pairs, "val": []})
+
+
+_IMAGES_ONLY = ("im0.png", "view1.png", "image_2", "training/image_2")
+
+
+def open_source(spec: str, *, val_fraction: float = 0.1) -> TrainSource:
+    """Open one source string (see the module docstring).
+
+    Raises
+    ------
+    DatasetError
+        A folder that is neither a stereoforge dataset nor a real-scene folder, a dataset
+        without samples, a scene without ground truth.
+    FileNotFoundError
+        No such path.
+    """
+    kind = spec.partition(":")[0]
+    if kind in REAL_KINDS and ":" in spec:
+        return _real(spec)
+    root = Path(spec).expanduser()
+    if not root.exists():
+        raise FileNotFoundError(f"training data {spec}: no such folder; give a stereoforge "
+                                "dataset (stereoforge dataset CONFIG --out DIR) or "
+                                "middlebury:DIR, kitti:DIR, skimage:motorcycle")
+    if (root / "dataset.json").is_file():
+        return _dataset(spec, root, val_fraction)
+    if (root / "training" / "disp_occ_0").is_dir() or (root / "disp_occ_0").is_dir():
+        return _real(f"kitti:{spec}")
+    if root.is_dir() and real_scene_dirs(root):
+        return _real(f"middlebury:{spec}")
+    if any((root / n).exists() or any(root.glob(f"*/{n}")) for n in _IMAGES_ONLY):
+        raise DatasetError(f"training data {spec}: {root} holds stereo images but no ground-truth "
+                           "disparity (disp0GT.pfm, disp1.png or disp_occ_0/); train learns from "
+                           "ground truth: give a stereoforge dataset or a training folder")
+    raise DatasetError(f"training data {spec}: {root} is neither a stereoforge dataset (no "
+                       "dataset.json) nor a Middlebury or KITTI folder with ground truth (no "
+                       "view1.png + disp1.png, im0.png + disp0GT.pfm, or disp_occ_0/)")
+
+
+def open_sources(specs: list[str] | tuple[str, ...], *, val_fraction: float = 0.1
+                 ) -> list[TrainSource]:
+    """Open every source string; at least one is needed."""
+    if not specs:
+        raise DatasetError("train: give at least one DATASET")
+    return [open_source(str(s), val_fraction=val_fraction) for s in specs]
