@@ -288,6 +288,51 @@ MUTANTS += (
 )
 
 
+# planted bugs the suite let through until each got its pin (the scores, the OpenCV adapter, the
+# KITTI object map, the loader, the shards, file modes)
+_SCORES = ("tests/matcher/test_regions.py", "tests/matcher/test_benchmarks.py",
+           "tests/matcher/test_metrics.py", "tests/matcher/test_metrics_properties.py",
+           "src/matcher/regions.py", "src/matcher/benchmarks.py", "src/matcher/metrics.py")
+
+MUTANTS += (
+    Mutant(
+        "validate quantiles as percentiles",
+        "src/matcher/regions.py",
+        (("np.quantile(err, (0.5, 0.9, 0.99))", "np.percentile(err, (0.5, 0.9, 0.99))"),),
+        "a50/a90/a99 of validate and eval-dataset are the 0.5th/0.9th/0.99th percentiles",
+        _SCORES,
+    ),
+    Mutant(
+        "benchmark quantiles as percentiles",
+        "src/matcher/benchmarks.py",
+        (("np.quantile(err, _QUANTILES)", "np.percentile(err, _QUANTILES)"),),
+        "a50..a99 of eval --benchmark middlebury/eth3d are the 0.5th..0.99th percentiles",
+        _SCORES,
+    ),
+    Mutant(
+        "validate bad-x counts an error equal to x",
+        "src/matcher/regions.py",
+        (("np.count_nonzero(err <= th)", "np.count_nonzero(err < th)"),),
+        "|err| == x is bad in bad_0_5 .. bad_4 (Middlebury: bad is |err| > x)",
+        _SCORES,
+    ),
+    Mutant(
+        "MiddEval3 bad-x counts an error equal to x",
+        "src/matcher/benchmarks.py",
+        (("bad = {th: 100.0 * int((err > th).sum()) / n", "bad = {th: 100.0 * int((err >= th).sum()) / n"),),
+        "middlebury_v3 counts |err| == x as bad (evaldisp: err > thresh)",
+        _SCORES,
+    ),
+    Mutant(
+        "ETH3D bad-x counts an error equal to x",
+        "src/matcher/benchmarks.py",
+        (("bad = [_pct(int((err > th).sum()), err.size)", "bad = [_pct(int((err >= th).sum()), err.size)"),),
+        "eth3d_two_view counts |err| == x as bad",
+        _SCORES,
+    ),
+)
+
+
 def _copy_tree(dst: Path) -> None:
     for name in ("src", "tests"):
         shutil.copytree(ROOT / name, dst / name,
