@@ -293,6 +293,7 @@ MUTANTS += (
 _SCORES = ("tests/matcher/test_regions.py", "tests/matcher/test_benchmarks.py",
            "tests/matcher/test_metrics.py", "tests/matcher/test_metrics_properties.py",
            "src/matcher/regions.py", "src/matcher/benchmarks.py", "src/matcher/metrics.py")
+_ADAPTERS = ("tests/matcher/test_adapters.py", "src/matcher/adapters.py")
 
 MUTANTS += (
     Mutant(
@@ -329,6 +330,20 @@ MUTANTS += (
         (("bad = [_pct(int((err > th).sum()), err.size)", "bad = [_pct(int((err >= th).sum()), err.size)"),),
         "eth3d_two_view counts |err| == x as bad",
         _SCORES,
+    ),
+    Mutant(
+        "OpenCV fixed-point 0 taken as no estimate",
+        "src/matcher/adapters.py",
+        (("out[raw < 0] = np.inf", "out[raw <= 0] = np.inf"),),
+        "an int16 compute() result of 0 (disparity 0) becomes inf; only negatives are no estimate",
+        _ADAPTERS,
+    ),
+    Mutant(
+        "OpenCV float 0 taken as no estimate",
+        "src/matcher/adapters.py",
+        (("out[out < 0] = np.inf", "out[out <= 0] = np.inf"),),
+        "a float compute() result of 0.0 becomes inf",
+        _ADAPTERS,
     ),
 )
 
