@@ -294,6 +294,7 @@ _SCORES = ("tests/matcher/test_regions.py", "tests/matcher/test_benchmarks.py",
            "tests/matcher/test_metrics.py", "tests/matcher/test_metrics_properties.py",
            "src/matcher/regions.py", "src/matcher/benchmarks.py", "src/matcher/metrics.py")
 _ADAPTERS = ("tests/matcher/test_adapters.py", "src/matcher/adapters.py")
+_EXPORT = ("tests/synth/test_export.py", "tests/synth/test_cli.py")
 
 MUTANTS += (
     Mutant(
@@ -344,6 +345,13 @@ MUTANTS += (
         (("out[out < 0] = np.inf", "out[out <= 0] = np.inf"),),
         "a float compute() result of 0.0 becomes inf",
         _ADAPTERS,
+    ),
+    Mutant(
+        "KITTI obj_map marks pixels without ground truth",
+        "src/synth/export.py",
+        (("background = ~np.isfinite(disp)", "background = np.zeros(disp.shape, bool)"),),
+        "obj_map is 1 (foreground) where there is no ground truth instead of KITTI's 0",
+        _EXPORT,
     ),
 )
 
