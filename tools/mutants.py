@@ -353,6 +353,13 @@ MUTANTS += (
         "obj_map is 1 (foreground) where there is no ground truth instead of KITTI's 0",
         _EXPORT,
     ),
+    Mutant(
+        "StereoDataset occlusion includes pixels without ground truth",
+        "src/synth/dataset/loader.py",
+        (('"occlusion": mask == 128,', '"occlusion": mask != 255,'),),
+        "item['occlusion'] is every pixel not visible in both views, mask 0 included",
+        ("tests/synth/test_loader.py",),
+    ),
 )
 
 
