@@ -360,6 +360,13 @@ MUTANTS += (
         "item['occlusion'] is every pixel not visible in both views, mask 0 included",
         ("tests/synth/test_loader.py",),
     ),
+    Mutant(
+        "short last shard sealed",
+        "src/synth/dataset/shards.py",
+        (("self._close(sealed=False)", "self._close(sealed=True)"),),
+        "an extended webdataset run keeps the short shard and starts a new one after it",
+        ("tests/synth/test_shards.py",),
+    ),
 )
 
 
