@@ -367,6 +367,20 @@ MUTANTS += (
         "an extended webdataset run keeps the short shard and starts a new one after it",
         ("tests/synth/test_shards.py",),
     ),
+    Mutant(
+        "atomic writes keep mkstemp's 0600",
+        "src/matcher/io/atomic.py",
+        (("os.fchmod(fd, _default_mode())", "os.fchmod(fd, 0o600)"),),
+        "every file written atomically (datasets, pairs, PFMs) is unreadable by other users",
+        ("tests/matcher/test_io_atomic.py", "src/matcher/io/atomic.py"),
+    ),
+    Mutant(
+        "staged output folder keeps mkdtemp's 0700",
+        "src/synth/export.py",
+        (("os.chmod(stage, _default_dir_mode())", "os.chmod(stage, 0o700)"),),
+        "render --out, demo and render --from-manifest folders are closed to other users",
+        _EXPORT,
+    ),
 )
 
 

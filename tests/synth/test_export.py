@@ -1,11 +1,14 @@
-"""One pair on disk (synth.export): the KITTI object map."""
+"""One pair on disk (synth.export): the KITTI object map, the staged output folder."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
+import pytest
 
 from scenes import get_preset, plane_equation
-from synth.export import foreground_map
+from synth.export import foreground_map, staged_output_dir
 from synth.pair import StereoPair
 from synth.rig import StereoRig
 
@@ -32,3 +35,18 @@ def test_obj_map_is_background_on_the_planes_foreground_elsewhere_and_0_without_
     obj = foreground_map(_pair(disp, rig), scene)
     assert obj.dtype == np.uint8
     np.testing.assert_array_equal(obj, expected)
+
+
+@pytest.fixture
+def umask_022():
+    old = os.umask(0o022)
+    try:
+        yield
+    finally:
+        os.umask(old)
+
+
+def test_a_staged_output_folder_gets_the_umask_mode_not_mkdtemps_0700(tmp_path, umask_022):
+    with staged_output_dir(tmp_path / "pair") as stage:
+        (stage / "a.txt").write_text("hi")
+    assert (tmp_path / "pair").stat().st_mode & 0o777 == 0o755  # others may read the pair
