@@ -36,7 +36,9 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
+import os
 from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -61,6 +63,7 @@ __all__ = [
     "check_finite",
     "check_keys",
     "check_text",
+    "check_input_file",
 ]
 
 _MAX_REPR = 80
@@ -452,6 +455,41 @@ def check_text(data: bytes, name: str, *, encoding: str = "utf-8", fix: str | No
         tail = f"; {fix}" if fix else ""
         raise error(f"{name}: not {encoding} text (byte {exc.start} is "
                     f"{data[exc.start]:#04x}){tail}") from None
+
+
+def check_input_file(path: str | os.PathLike[str], what: str, *, suffixes: Iterable[str] = (),
+                     fix: str | None = None) -> Path:
+    """``path`` as a :class:`~pathlib.Path` when it is a file to read; else an error naming
+    ``what``: :class:`FileNotFoundError` (nothing there) or :class:`IsADirectoryError` (a
+    directory, with the files of ``suffixes`` it holds, a few at most, as the way out).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.toml").write_text("")
+    >>> check_input_file(d / "a.toml", "dataset config").name
+    'a.toml'
+    >>> check_input_file(d, "dataset config", suffixes=[".toml"], fix="pass a .toml file")
+    Traceback (most recent call last):
+    ...
+    IsADirectoryError: dataset config ... is a directory (holding a.toml); pass a .toml file
+    >>> check_input_file(d / "b.toml", "dataset config")
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: dataset config .../b.toml does not exist
+    """
+    path = Path(path)
+    if path.is_file():
+        return path
+    tail = f"; {fix}" if fix else ""
+    if path.is_dir():
+        wanted = {s.lower() for s in suffixes}
+        inside = sorted(p.name for p in path.iterdir() if p.suffix.lower() in wanted and p.is_file())
+        holding = f" (holding {', '.join(inside[:3])}{', ...' if len(inside) > 3 else ''})" \
+            if inside else ""
+        raise IsADirectoryError(f"{what} {path} is a directory{holding}{tail}")
+    raise FileNotFoundError(f"{what} {path} does not exist{tail}")
 
 
 def check_rotation_deg(value: Any, name: str, *, limit: float, where: str | None = None) -> float:

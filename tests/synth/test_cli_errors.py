@@ -50,6 +50,8 @@ _INPUTS: dict[str, bytes] = {
     "list/dataset.json": b"[]",
     "empty/dataset.json": b"{}",
     "golden-list/manifest.json": b"[]",
+    "scene-dir/scene.json": b"{}",  # a render's --out folder, given as the scene
+    "configs.toml/planes.toml": b"",  # a folder of configurations, named like one
 }
 
 # (name, arguments, exit status, words the Error line must hold)
@@ -68,6 +70,10 @@ CASES = [
     ("render: a plane of 1e300 m", ["render", "huge-plane.json", "--out", "o"], 2,
      ["MAX_EXTENT", "1e+300"]),
     ("render: missing scene file", ["render", "nowhere.toml", "--out", "o"], 2, ["nowhere.toml"]),
+    ("render: a directory as the scene", ["render", "scene-dir", "--out", "o"], 2,
+     ["scene file scene-dir is a directory (holding scene.json)", ".toml or .json scene file"]),
+    ("render: a directory named .toml as the scene", ["render", "configs.toml", "--out", "o"], 2,
+     ["scene file configs.toml is a directory (holding planes.toml)"]),
     ("render: --out under a file", ["render", "fronto_plane", "--out", "a-file/o"], 1,
      ["a-file", "not a directory"]),
     ("render: dataset.json is []", ["render", "--from-manifest", "list", "0", "--out", "o"], 2,
@@ -83,6 +89,8 @@ CASES = [
     ("dataset: integer beyond the float range", ["dataset", "bigint.toml", "--out", "o"], 2,
      ["bigint.toml:2", "scene.frequency_px"]),
     ("dataset: unknown config", ["dataset", "nowhere", "--out", "o"], 2, ["nowhere", "planes"]),
+    ("dataset: a directory as the config", ["dataset", "configs.toml", "--out", "o"], 2,
+     ["dataset config configs.toml is a directory (holding planes.toml)", "pass a .toml file"]),
     ("dataset: --out under a file", ["dataset", "planes", "--out", "a-file/o"], 1,
      ["a-file", "not a directory"]),
     ("dataset: --out holds a broken dataset.json", ["dataset", "planes", "--out", "list"], 2,
@@ -109,6 +117,8 @@ CASES = [
      ["deep.toml", "nested too deeply"]),
     ("study: config not UTF-8", ["study", "latin1.toml", "--out", "o"], 2, ["latin1.toml", "utf-8"]),
     ("study: unknown config", ["study", "nowhere", "--out", "o"], 2, ["nowhere"]),
+    ("study: a directory as the config", ["study", "configs.toml", "--out", "o"], 2,
+     ["study config configs.toml is a directory (holding planes.toml)", "pass a .toml file"]),
     ("golden check: manifest is []", ["golden", "check", "--root", "golden-list", "--no-render"],
      2, ["golden-list/manifest.json", "expected a JSON object"]),
     ("golden update: unknown backend", ["golden", "update", "--backend", "bogus"], 2, ["bogus"]),
@@ -217,6 +227,7 @@ def test_debug_shows_the_traceback(tmp_path):
     (OSError(errno.EROFS, "Read-only file system", "o"), 1, ["read-only", "another --out"]),
     (PermissionError(errno.EACCES, "Permission denied", "o"), 1, ["permission denied"]),
     (FileNotFoundError(errno.ENOENT, "No such file or directory", "x.png"), 2, ["x.png"]),
+    (IsADirectoryError(errno.EISDIR, "Is a directory", "x.png"), 2, ["x.png", "give a file"]),
     (MemoryError(), 1, ["out of memory"]),
     (KeyError("k"), 1, ["unexpected KeyError", "--debug"]),
 ])
