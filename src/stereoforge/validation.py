@@ -33,6 +33,7 @@ One module on purpose: the validators share one message format, which is the poi
 
 from __future__ import annotations
 
+import codecs
 import difflib
 import math
 import numbers
@@ -67,6 +68,7 @@ __all__ = [
 ]
 
 _MAX_REPR = 80
+_BOM = codecs.BOM_UTF8
 
 
 def _short(value: object) -> str:
@@ -440,21 +442,28 @@ def check_text(data: bytes, name: str, *, encoding: str = "utf-8", fix: str | No
     """The bytes of a text file, decoded; else an ``error`` naming ``name`` and the first bad
     byte.
 
+    A UTF-8 byte-order mark at the start (what some Windows editors write) is dropped: it is
+    on line 1 before column 1, so lines and columns of the text stay those an editor shows,
+    and the bad byte of an error is counted in the file's bytes, mark included.
+
     Examples
     --------
     >>> check_text(b"a = 1", "my.toml")
+    'a = 1'
+    >>> check_text(b"\\xef\\xbb\\xbfa = 1", "my.toml")
     'a = 1'
     >>> check_text(b"a = \\xff", "my.toml", fix="save it as UTF-8")
     Traceback (most recent call last):
     ...
     stereoforge.errors.ParameterError: my.toml: not utf-8 text (byte 4 is 0xff); save it as UTF-8
     """
+    start = len(_BOM) if codecs.lookup(encoding).name == "utf-8" and data.startswith(_BOM) else 0
     try:
-        return data.decode(encoding)
+        return data[start:].decode(encoding)
     except UnicodeDecodeError as exc:
         tail = f"; {fix}" if fix else ""
-        raise error(f"{name}: not {encoding} text (byte {exc.start} is "
-                    f"{data[exc.start]:#04x}){tail}") from None
+        at = start + exc.start
+        raise error(f"{name}: not {encoding} text (byte {at} is {data[at]:#04x}){tail}") from None
 
 
 def check_input_file(path: str | os.PathLike[str], what: str, *, suffixes: Iterable[str] = (),

@@ -52,6 +52,9 @@ _INPUTS: dict[str, bytes] = {
     "golden-list/manifest.json": b"[]",
     "scene-dir/scene.json": b"{}",  # a render's --out folder, given as the scene
     "configs.toml/planes.toml": b"",  # a folder of configurations, named like one
+    # a UTF-8 byte-order mark (Windows editors) is dropped: the error is the one on line 4
+    "bom-bad.toml": b'\xef\xbb\xbfname = "bom"\n\n[scene]\nfrequency_px = "high"\n',
+    "bom-study.toml": b'\xef\xbb\xbfname = "bom"\n\n[match]\nwindows = [5, 8]\n',
 }
 
 # (name, arguments, exit status, words the Error line must hold)
@@ -91,6 +94,8 @@ CASES = [
     ("dataset: unknown config", ["dataset", "nowhere", "--out", "o"], 2, ["nowhere", "planes"]),
     ("dataset: a directory as the config", ["dataset", "configs.toml", "--out", "o"], 2,
      ["dataset config configs.toml is a directory (holding planes.toml)", "pass a .toml file"]),
+    ("dataset: a bad value after a byte-order mark", ["dataset", "bom-bad.toml", "--out", "o"],
+     2, ["bom-bad.toml:4: scene.frequency_px"]),
     ("dataset: --out under a file", ["dataset", "planes", "--out", "a-file/o"], 1,
      ["a-file", "not a directory"]),
     ("dataset: --out holds a broken dataset.json", ["dataset", "planes", "--out", "list"], 2,
@@ -117,6 +122,8 @@ CASES = [
      ["deep.toml", "nested too deeply"]),
     ("study: config not UTF-8", ["study", "latin1.toml", "--out", "o"], 2, ["latin1.toml", "utf-8"]),
     ("study: unknown config", ["study", "nowhere", "--out", "o"], 2, ["nowhere"]),
+    ("study: a bad value after a byte-order mark", ["study", "bom-study.toml", "--out", "o"], 2,
+     ["bom-study.toml:4: match.windows[1]"]),
     ("study: a directory as the config", ["study", "configs.toml", "--out", "o"], 2,
      ["study config configs.toml is a directory (holding planes.toml)", "pass a .toml file"]),
     ("golden check: manifest is []", ["golden", "check", "--root", "golden-list", "--no-render"],
@@ -236,6 +243,23 @@ def test_describe_error_maps_environment_errors(exc, status, words):
     assert code == status
     for word in words:
         assert word.lower() in message.lower()
+
+
+_BOM = b"\xef\xbb\xbf"
+
+
+@pytest.mark.gl
+def test_files_with_a_utf8_byte_order_mark_are_read(tmp_path, renderer):
+    from scenes import dumps_toml, get_preset
+
+    (tmp_path / "scene.toml").write_bytes(_BOM + dumps_toml(get_preset("fronto_plane")).encode())
+    (tmp_path / "cfg.toml").write_bytes(
+        _BOM + b'name = "bom"\ncount = 1\n\n[rig]\nwidth = 16\nheight = 12\n')
+    render = _invoke(["render", "scene.toml", "--width", "16", "--height", "12", "--out", "r"],
+                     tmp_path)
+    assert render.exit_code == 0 and "Error" not in render.output, render.output
+    dataset = _invoke(["dataset", "cfg.toml", "--out", "d"], tmp_path)
+    assert dataset.exit_code == 0 and "1 rendered" in dataset.output, dataset.output
 
 
 # --------------------------------------------------------------------------- disk full
