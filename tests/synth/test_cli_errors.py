@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from matcher.io import encode_png, read_pfm, write_pfm
+from matcher.io import encode_pfm, encode_png, read_pfm, write_pfm
 from synth.cli import main
 from synth.cli.errors import describe_error
 
@@ -46,6 +46,11 @@ _INPUTS: dict[str, bytes] = {
     "garbage.png": b"not a png",
     "truncated.pfm": b"Pf\n4 4\n-1\n\x00\x00",
     "gray.png": encode_png(np.full((16, 24), 128, np.uint8)),
+    "flat.pfm": encode_pfm(np.full((16, 24), 5.0, np.float32)),
+    # mask0nocc.png drawn in colour: green where visible (its red channel is 0 everywhere)
+    "colour-mask.png": encode_png(np.dstack([np.zeros((16, 24), np.uint8),
+                                             np.full((16, 24), 255, np.uint8),
+                                             np.zeros((16, 24), np.uint8)])),
     "a-file": b"",
     "list/dataset.json": b"[]",
     "empty/dataset.json": b"{}",
@@ -117,6 +122,14 @@ CASES = [
     ("eval: truncated PFM", ["eval", "truncated.pfm", "truncated.pfm"], 2,
      ["truncated.pfm", "too short"]),
     ("eval: missing file", ["eval", "nowhere.pfm", "truncated.pfm"], 2, ["nowhere.pfm"]),
+    ("eval: a colour --mask", ["eval", "flat.pfm", "flat.pfm", "--mask", "colour-mask.png"], 2,
+     ["colour-mask.png: mask must be one channel (grey) PNG, got 3 channels", "255 visible"]),
+    ("eval --benchmark: a colour --mask", ["eval", "flat.pfm", "flat.pfm", "--benchmark", "all",
+                                           "--mask", "colour-mask.png"], 2,
+     ["mask must be one channel (grey) PNG, got 3 channels"]),
+    ("eval --benchmark kitti: a colour --obj-map", ["eval", "flat.pfm", "flat.pfm", "--benchmark",
+                                                    "kitti", "--obj-map", "colour-mask.png"], 2,
+     ["colour-mask.png: obj_map must be one channel (grey) PNG, got 3 channels"]),
     ("paper: no data", ["paper", "--data", "nowhere", "--out", "o"], 2, ["nowhere", "--data"]),
     ("study: config nested 50,000 deep", ["study", "deep.toml", "--out", "o"], 2,
      ["deep.toml", "nested too deeply"]),
