@@ -437,6 +437,22 @@ def test_same_size_corruption_is_left_to_verify(reference, config_file, tmp_path
         "rewrite it)")
 
 
+@pytest.mark.gl
+def test_verify_reports_a_sample_json_that_is_not_json_instead_of_stopping(reference, tmp_path):
+    from synth.dataset.integrity import verify_dataset
+
+    out = _copy(reference, tmp_path / "ds")
+    record = _sample(out, 9) / "sample.json"
+    size = record.stat().st_size
+    record.write_text('{"index": 9, "seed": ')
+    problems = verify_dataset(out)
+    assert problems[0] == (f"MiddEval3/trainingF/000009/sample.json: 21 bytes, its record says "
+                           f"{size} bytes (truncated or replaced)")
+    assert problems[1].startswith(f"manifest.jsonl, manifest.csv: not checked ({record}: not a "
+                                  "sample record: invalid JSON"), problems
+    assert len(problems) == 2
+
+
 _TORN = """
 import fnmatch, os, sys
 from synth.dataset.run import run_dataset
