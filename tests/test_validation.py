@@ -18,6 +18,7 @@ from stereoforge.validation import (
     check_real,
     check_sequence,
     check_shape,
+    check_text,
     check_type,
     describe,
     fail,
@@ -184,3 +185,13 @@ def test_table_checks_unknown_keys_and_values_with_their_location():
 def test_describe_shortens_long_values():
     assert describe("x" * 200).endswith("...") and len(describe("x" * 200)) < 100
     assert describe(np.zeros((2,), bool)) == "array of shape (2,) and dtype bool"
+
+
+def test_text_drops_a_utf8_byte_order_mark_and_counts_bad_bytes_in_the_file():
+    bom = b"\xef\xbb\xbf"
+    assert check_text(bom + b"a = 1\nb = 2\n", "x.toml") == "a = 1\nb = 2\n"
+    assert check_text(b"a = 1", "x.toml") == "a = 1"
+    with pytest.raises(ParameterError, match=r"x\.toml: not utf-8 text \(byte 7 is 0xff\)"):
+        check_text(bom + b"a = \xff", "x.toml")  # byte 7 of the file (4 of the text)
+    with pytest.raises(ParameterError, match=r"not ascii text \(byte 0 is 0xef\)"):
+        check_text(bom + b"a", "calib.txt", encoding="ascii")  # only UTF-8 has this mark

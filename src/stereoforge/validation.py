@@ -33,10 +33,13 @@ One module on purpose: the validators share one message format, which is the poi
 
 from __future__ import annotations
 
+import codecs
 import difflib
 import math
 import numbers
+import os
 from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -61,9 +64,11 @@ __all__ = [
     "check_finite",
     "check_keys",
     "check_text",
+    "check_input_file",
 ]
 
 _MAX_REPR = 80
+_BOM = codecs.BOM_UTF8
 
 
 def _short(value: object) -> str:
@@ -437,21 +442,63 @@ def check_text(data: bytes, name: str, *, encoding: str = "utf-8", fix: str | No
     """The bytes of a text file, decoded; else an ``error`` naming ``name`` and the first bad
     byte.
 
+    A UTF-8 byte-order mark at the start (what some Windows editors write) is dropped: it is
+    on line 1 before column 1, so lines and columns of the text stay those an editor shows,
+    and the bad byte of an error is counted in the file's bytes, mark included.
+
     Examples
     --------
     >>> check_text(b"a = 1", "my.toml")
+    'a = 1'
+    >>> check_text(b"\\xef\\xbb\\xbfa = 1", "my.toml")
     'a = 1'
     >>> check_text(b"a = \\xff", "my.toml", fix="save it as UTF-8")
     Traceback (most recent call last):
     ...
     stereoforge.errors.ParameterError: my.toml: not utf-8 text (byte 4 is 0xff); save it as UTF-8
     """
+    start = len(_BOM) if codecs.lookup(encoding).name == "utf-8" and data.startswith(_BOM) else 0
     try:
-        return data.decode(encoding)
+        return data[start:].decode(encoding)
     except UnicodeDecodeError as exc:
         tail = f"; {fix}" if fix else ""
-        raise error(f"{name}: not {encoding} text (byte {exc.start} is "
-                    f"{data[exc.start]:#04x}){tail}") from None
+        at = start + exc.start
+        raise error(f"{name}: not {encoding} text (byte {at} is {data[at]:#04x}){tail}") from None
+
+
+def check_input_file(path: str | os.PathLike[str], what: str, *, suffixes: Iterable[str] = (),
+                     fix: str | None = None) -> Path:
+    """``path`` as a :class:`~pathlib.Path` when it is a file to read; else an error naming
+    ``what``: :class:`FileNotFoundError` (nothing there) or :class:`IsADirectoryError` (a
+    directory, with the files of ``suffixes`` it holds, a few at most, as the way out).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.toml").write_text("")
+    >>> check_input_file(d / "a.toml", "dataset config").name
+    'a.toml'
+    >>> check_input_file(d, "dataset config", suffixes=[".toml"], fix="pass a .toml file")
+    Traceback (most recent call last):
+    ...
+    IsADirectoryError: dataset config ... is a directory (holding a.toml); pass a .toml file
+    >>> check_input_file(d / "b.toml", "dataset config")
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: dataset config .../b.toml does not exist
+    """
+    path = Path(path)
+    if path.is_file():
+        return path
+    tail = f"; {fix}" if fix else ""
+    if path.is_dir():
+        wanted = {s.lower() for s in suffixes}
+        inside = sorted(p.name for p in path.iterdir() if p.suffix.lower() in wanted and p.is_file())
+        holding = f" (holding {', '.join(inside[:3])}{', ...' if len(inside) > 3 else ''})" \
+            if inside else ""
+        raise IsADirectoryError(f"{what} {path} is a directory{holding}{tail}")
+    raise FileNotFoundError(f"{what} {path} does not exist{tail}")
 
 
 def check_rotation_deg(value: Any, name: str, *, limit: float, where: str | None = None) -> float:

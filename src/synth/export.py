@@ -28,8 +28,9 @@ from matcher.io import (
     write_kitti,
     write_middlebury,
 )
-from scenes import SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
+from scenes import PRESETS, SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
+from stereoforge.validation import check_input_file
 from synth._json import json_bytes
 from synth.formats import FORMATS, KITTI_ROOT, MIDDLEBURY_LAYOUTS
 from synth.pair import StereoPair
@@ -62,9 +63,10 @@ def resolve_scene(scene: str, *, seed: int | None = None) -> tuple[SceneSpec, in
     (SceneSpec, int)
     """
     path = Path(scene)
-    if path.suffix.lower() in (".toml", ".json"):
-        if not path.is_file():
-            raise FileNotFoundError(f"scene file {path} does not exist")
+    if path.suffix.lower() in (".toml", ".json") or (scene not in PRESETS and path.is_dir()):
+        check_input_file(path, "scene file", suffixes=(".toml", ".json"),
+                         fix="pass a .toml or .json scene file, or a preset name (stereoforge "
+                             "presets)")
         if seed is not None:
             raise ValueError(
                 f"--seed applies to presets only; the scene file {path} fixes its own seeds "

@@ -56,6 +56,24 @@ def not_an_array(left, right, *, max_disparity):
 
 opencv_bm = cv2.StereoBM_create(numDisparities=16, blockSize=5)
 
+
+class _FixedCompute:
+    """An OpenCV-style matcher whose ``compute`` returns ``raw``: 0 (a real disparity of 0)
+    beside negatives (no estimate), in OpenCV's int16 fixed point and as float."""
+
+    def __init__(self, dtype, scale):
+        raw = np.zeros((40, 64), dtype)
+        raw[:, 1] = -1 * scale
+        raw[:, 2] = 3 * scale
+        self.raw = raw
+
+    def compute(self, left, right):
+        return self.raw
+
+
+fixed_int16 = _FixedCompute(np.int16, 16)
+fixed_float = _FixedCompute(np.float32, 1)
+
 _PROGRAM = """\
 import sys
 import numpy as np
@@ -107,6 +125,19 @@ def test_opencv_compute_object_gets_grey_and_fixed_point_is_divided(pair):
                                 cv2.cvtColor(pair[1], cv2.COLOR_RGB2GRAY))
         expected = ref.astype(np.float32) / 16
         expected[ref < 0] = np.inf
+        assert np.array_equal(out.disparity, expected)
+    finally:
+        m.close()
+
+
+@pytest.mark.parametrize("name", ["fixed_int16", "fixed_float"])
+def test_opencv_compute_result_0_is_disparity_0_and_only_negatives_are_no_estimate(pair, name):
+    m = resolve_matcher(f"py:{HERE}:{name}")
+    try:
+        out = m.run(*pair, max_disparity=16)
+        assert out.error is None, out.error
+        expected = np.zeros((40, 64), np.float32)
+        expected[:, 1], expected[:, 2] = np.inf, 3.0
         assert np.array_equal(out.disparity, expected)
     finally:
         m.close()

@@ -44,3 +44,18 @@ def test_atomic_write_fsyncs_before_rename(tmp_path, monkeypatch):
     calls.clear()
     atomic_write_bytes(tmp_path / "g", b"y", fsync=False)
     assert calls == ["replace"]
+
+
+@pytest.mark.parametrize(("umask", "mode"), [(0o022, 0o644), (0o002, 0o664), (0o077, 0o600)],
+                         ids=["umask-022", "umask-002", "umask-077"])
+def test_atomic_write_gives_the_umask_mode_not_mkstemps_0600(tmp_path, umask, mode):
+    old = os.umask(umask)
+    try:
+        new = atomic_write_bytes(tmp_path / "new.bin", b"x", fsync=False)
+        (tmp_path / "old.bin").write_bytes(b"old")
+        replaced = atomic_write_bytes(tmp_path / "old.bin", b"y", fsync=False)
+    finally:
+        os.umask(old)
+    # the mode a plain write gives: under umask 022 other users can read the dataset
+    assert new.stat().st_mode & 0o777 == mode
+    assert replaced.stat().st_mode & 0o777 == mode

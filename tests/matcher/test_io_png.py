@@ -123,3 +123,23 @@ def test_unknown_deflate_is_refused():
     with pytest.raises(ValueError, match="deflate: expected one of 'isal', 'libdeflate', "
                                          "'zlib' or None, got 'zstd'"):
         encode_png(np.zeros((2, 2), np.uint8), deflate="zstd")
+
+
+def test_grey_images_are_one_channel_and_colour_ones_with_equal_channels_pass(tmp_path):
+    from stereoforge.errors import FormatError
+
+    mask = np.array([[255, 128, 0]], np.uint8)
+    cv2.imwrite(str(tmp_path / "grey.png"), mask)
+    cv2.imwrite(str(tmp_path / "grey-as-rgb.png"), np.dstack([mask] * 3))
+    for name in ("grey.png", "grey-as-rgb.png"):
+        out = png.read_grey_image(tmp_path / name, what="mask")
+        assert out.dtype == np.uint8 and out.shape == (1, 3)
+        np.testing.assert_array_equal(out, mask)
+    colour = np.dstack([mask, np.full_like(mask, 255), mask])  # green where the mask is 0
+    cv2.imwrite(str(tmp_path / "colour.png"), colour)
+    with pytest.raises(FormatError, match=r"colour\.png: mask must be one channel \(grey\) PNG, "
+                                          r"got 3 channels; save it as grey"):
+        png.read_grey_image(tmp_path / "colour.png", what="mask", fix="save it as grey")
+    cv2.imwrite(str(tmp_path / "deep.png"), mask.astype(np.uint16) * 256)
+    with pytest.raises(FormatError, match="obj_map must be an 8-bit PNG, got dtype uint16"):
+        png.read_grey_image(tmp_path / "deep.png", what="obj_map")

@@ -57,3 +57,19 @@ def test_scores_count_missing_estimates_as_bad_and_errors_over_estimated_pixels(
     failed = region_scores(None, gt, np.ones((1, 4), bool))
     assert failed["bad_0_5"] == 1.0 and failed["coverage"] == 0.0 and failed["avgerr"] is None
     assert all(v is None for v in region_scores(est, gt, np.zeros((1, 4), bool)).values())
+
+
+def test_an_error_equal_to_the_threshold_is_good():
+    # errors exactly 0.5, 1, 2, 4: Middlebury's bad-x counts |err| > x, so each is good at its x
+    gt = np.full((1, 4), 10.0)
+    est = np.array([[10.5, 11.0, 12.0, 14.0]])
+    s = region_scores(est, gt, np.ones((1, 4), bool))
+    assert (s["bad_0_5"], s["bad_1"], s["bad_2"], s["bad_4"]) == (0.75, 0.5, 0.25, 0.0)
+
+
+def test_a50_a90_a99_are_quantiles_of_the_absolute_error():
+    # errors 0, 1, ..., 10 (and one pixel without estimate, which they leave out)
+    gt = np.full((1, 12), 20.0)
+    est = np.append(20.0 - np.arange(11.0), np.inf)[None, :]
+    s = region_scores(est, gt, np.ones((1, 12), bool))
+    assert (s["a50"], s["a90"], s["a99"]) == pytest.approx((5.0, 9.0, 9.9))

@@ -57,6 +57,14 @@ def test_dump_load_files(tmp_path, suffix: str) -> None:
     assert data["version"] == 1 and data["objects"][0]["kind"] == "plane"
 
 
+@pytest.mark.parametrize("suffix", [".json", ".toml"])
+def test_a_utf8_byte_order_mark_is_dropped(tmp_path, suffix: str) -> None:
+    spec = _scene()
+    path = dump_scene(spec, tmp_path / f"scene{suffix}")
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())  # as some Windows editors save it
+    assert load_scene(path) == spec
+
+
 def test_unknown_suffix_is_rejected(tmp_path) -> None:
     with pytest.raises(ValueError, match=r"\.json.*\.toml.*'\.yaml'"):
         dump_scene(_scene(), tmp_path / "scene.yaml")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from matcher.io import encode_png, read_pfm, write_pfm
+from matcher.io import encode_pfm, encode_png, read_pfm, write_pfm
 from synth.cli import main
 from synth.cli.errors import describe_error
 
@@ -46,10 +46,20 @@ _INPUTS: dict[str, bytes] = {
     "garbage.png": b"not a png",
     "truncated.pfm": b"Pf\n4 4\n-1\n\x00\x00",
     "gray.png": encode_png(np.full((16, 24), 128, np.uint8)),
+    "flat.pfm": encode_pfm(np.full((16, 24), 5.0, np.float32)),
+    # mask0nocc.png drawn in colour: green where visible (its red channel is 0 everywhere)
+    "colour-mask.png": encode_png(np.dstack([np.zeros((16, 24), np.uint8),
+                                             np.full((16, 24), 255, np.uint8),
+                                             np.zeros((16, 24), np.uint8)])),
     "a-file": b"",
     "list/dataset.json": b"[]",
     "empty/dataset.json": b"{}",
     "golden-list/manifest.json": b"[]",
+    "scene-dir/scene.json": b"{}",  # a render's --out folder, given as the scene
+    "configs.toml/planes.toml": b"",  # a folder of configurations, named like one
+    # a UTF-8 byte-order mark (Windows editors) is dropped: the error is the one on line 4
+    "bom-bad.toml": b'\xef\xbb\xbfname = "bom"\n\n[scene]\nfrequency_px = "high"\n',
+    "bom-study.toml": b'\xef\xbb\xbfname = "bom"\n\n[match]\nwindows = [5, 8]\n',
 }
 
 # (name, arguments, exit status, words the Error line must hold)
@@ -68,6 +78,10 @@ CASES = [
     ("render: a plane of 1e300 m", ["render", "huge-plane.json", "--out", "o"], 2,
      ["MAX_EXTENT", "1e+300"]),
     ("render: missing scene file", ["render", "nowhere.toml", "--out", "o"], 2, ["nowhere.toml"]),
+    ("render: a directory as the scene", ["render", "scene-dir", "--out", "o"], 2,
+     ["scene file scene-dir is a directory (holding scene.json)", ".toml or .json scene file"]),
+    ("render: a directory named .toml as the scene", ["render", "configs.toml", "--out", "o"], 2,
+     ["scene file configs.toml is a directory (holding planes.toml)"]),
     ("render: --out under a file", ["render", "fronto_plane", "--out", "a-file/o"], 1,
      ["a-file", "not a directory"]),
     ("render: dataset.json is []", ["render", "--from-manifest", "list", "0", "--out", "o"], 2,
@@ -83,6 +97,10 @@ CASES = [
     ("dataset: integer beyond the float range", ["dataset", "bigint.toml", "--out", "o"], 2,
      ["bigint.toml:2", "scene.frequency_px"]),
     ("dataset: unknown config", ["dataset", "nowhere", "--out", "o"], 2, ["nowhere", "planes"]),
+    ("dataset: a directory as the config", ["dataset", "configs.toml", "--out", "o"], 2,
+     ["dataset config configs.toml is a directory (holding planes.toml)", "pass a .toml file"]),
+    ("dataset: a bad value after a byte-order mark", ["dataset", "bom-bad.toml", "--out", "o"],
+     2, ["bom-bad.toml:4: scene.frequency_px"]),
     ("dataset: --out under a file", ["dataset", "planes", "--out", "a-file/o"], 1,
      ["a-file", "not a directory"]),
     ("dataset: --out holds a broken dataset.json", ["dataset", "planes", "--out", "list"], 2,
@@ -104,11 +122,23 @@ CASES = [
     ("eval: truncated PFM", ["eval", "truncated.pfm", "truncated.pfm"], 2,
      ["truncated.pfm", "too short"]),
     ("eval: missing file", ["eval", "nowhere.pfm", "truncated.pfm"], 2, ["nowhere.pfm"]),
+    ("eval: a colour --mask", ["eval", "flat.pfm", "flat.pfm", "--mask", "colour-mask.png"], 2,
+     ["colour-mask.png: mask must be one channel (grey) PNG, got 3 channels", "255 visible"]),
+    ("eval --benchmark: a colour --mask", ["eval", "flat.pfm", "flat.pfm", "--benchmark", "all",
+                                           "--mask", "colour-mask.png"], 2,
+     ["mask must be one channel (grey) PNG, got 3 channels"]),
+    ("eval --benchmark kitti: a colour --obj-map", ["eval", "flat.pfm", "flat.pfm", "--benchmark",
+                                                    "kitti", "--obj-map", "colour-mask.png"], 2,
+     ["colour-mask.png: obj_map must be one channel (grey) PNG, got 3 channels"]),
     ("paper: no data", ["paper", "--data", "nowhere", "--out", "o"], 2, ["nowhere", "--data"]),
     ("study: config nested 50,000 deep", ["study", "deep.toml", "--out", "o"], 2,
      ["deep.toml", "nested too deeply"]),
     ("study: config not UTF-8", ["study", "latin1.toml", "--out", "o"], 2, ["latin1.toml", "utf-8"]),
     ("study: unknown config", ["study", "nowhere", "--out", "o"], 2, ["nowhere"]),
+    ("study: a bad value after a byte-order mark", ["study", "bom-study.toml", "--out", "o"], 2,
+     ["bom-study.toml:4: match.windows[1]"]),
+    ("study: a directory as the config", ["study", "configs.toml", "--out", "o"], 2,
+     ["study config configs.toml is a directory (holding planes.toml)", "pass a .toml file"]),
     ("golden check: manifest is []", ["golden", "check", "--root", "golden-list", "--no-render"],
      2, ["golden-list/manifest.json", "expected a JSON object"]),
     ("golden update: unknown backend", ["golden", "update", "--backend", "bogus"], 2, ["bogus"]),
@@ -217,6 +247,7 @@ def test_debug_shows_the_traceback(tmp_path):
     (OSError(errno.EROFS, "Read-only file system", "o"), 1, ["read-only", "another --out"]),
     (PermissionError(errno.EACCES, "Permission denied", "o"), 1, ["permission denied"]),
     (FileNotFoundError(errno.ENOENT, "No such file or directory", "x.png"), 2, ["x.png"]),
+    (IsADirectoryError(errno.EISDIR, "Is a directory", "x.png"), 2, ["x.png", "give a file"]),
     (MemoryError(), 1, ["out of memory"]),
     (KeyError("k"), 1, ["unexpected KeyError", "--debug"]),
 ])
@@ -225,6 +256,23 @@ def test_describe_error_maps_environment_errors(exc, status, words):
     assert code == status
     for word in words:
         assert word.lower() in message.lower()
+
+
+_BOM = b"\xef\xbb\xbf"
+
+
+@pytest.mark.gl
+def test_files_with_a_utf8_byte_order_mark_are_read(tmp_path, renderer):
+    from scenes import dumps_toml, get_preset
+
+    (tmp_path / "scene.toml").write_bytes(_BOM + dumps_toml(get_preset("fronto_plane")).encode())
+    (tmp_path / "cfg.toml").write_bytes(
+        _BOM + b'name = "bom"\ncount = 1\n\n[rig]\nwidth = 16\nheight = 12\n')
+    render = _invoke(["render", "scene.toml", "--width", "16", "--height", "12", "--out", "r"],
+                     tmp_path)
+    assert render.exit_code == 0 and "Error" not in render.output, render.output
+    dataset = _invoke(["dataset", "cfg.toml", "--out", "d"], tmp_path)
+    assert dataset.exit_code == 0 and "1 rendered" in dataset.output, dataset.output
 
 
 # --------------------------------------------------------------------------- disk full

@@ -136,6 +136,17 @@ def test_invalid_toml_and_missing_file(tmp_path):
         load_config(3)  # type: ignore[arg-type]
 
 
+def test_a_utf8_byte_order_mark_is_dropped_and_lines_stay_those_of_the_file(tmp_path):
+    text = 'name = "bom"\ncount = 3\n\n[rig]\nwidth = 32\n'
+    plain, bom = tmp_path / "plain.toml", tmp_path / "bom.toml"
+    plain.write_text(text)
+    bom.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert load_config(bom).to_dict() == load_config(plain).to_dict()
+    bom.write_bytes(b"\xef\xbb\xbf" + text.replace("32", "4.5").encode())
+    with pytest.raises(ConfigError, match=r"bom\.toml:5: rig\.width: expected an integer"):
+        load_config(bom)
+
+
 def test_near_far_checked_at_the_far_key():
     with pytest.raises(ConfigError, match=r"<string>:3: rig\.far: expected near < far, "
                                           r"got near = 5\.0, far = 2\.0"):

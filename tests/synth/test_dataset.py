@@ -412,17 +412,23 @@ def _copy(src: Path, dst: Path) -> Path:
     return dst
 
 
+def _damage(out: Path) -> None:
+    """An emptied folder (3), a truncated image (5), no record (8), a damaged sample.json (9)."""
+    for f in _sample(out, 3).iterdir():
+        f.unlink()  # an emptied sample folder: used to count as done, a hole in the manifest
+    image = _sample(out, 5) / "im0.png"
+    image.write_bytes(image.read_bytes()[:1000])  # a truncated image: used to be kept
+    _record(out, 8).unlink()  # no completion record: not done
+    (_sample(out, 9) / "sample.json").write_text('{"index": 9, "seed": ')  # cut by an editor
+
+
 @pytest.mark.gl
 def test_resume_renders_again_an_emptied_folder_and_a_truncated_file(reference, config_file,
                                                                       tmp_path):
     from synth.dataset.integrity import verify_dataset
 
     out = _copy(reference, tmp_path / "ds")
-    for f in _sample(out, 3).iterdir():
-        f.unlink()  # an emptied sample folder: used to count as done, a hole in the manifest
-    image = _sample(out, 5) / "im0.png"
-    image.write_bytes(image.read_bytes()[:1000])  # a truncated image: used to be kept
-    _record(out, 8).unlink()  # no completion record: not done
+    _damage(out)
     problems = verify_dataset(out)
     size = (_sample(reference, 5) / "im0.png").stat().st_size
     assert problems[:2] == [
@@ -434,9 +440,48 @@ def test_resume_renders_again_an_emptied_folder_and_a_truncated_file(reference, 
     assert "000008: no completion record (records/000008.json); the sample is incomplete" \
         in problems
     run = run_dataset(config_file, out=out, workers=1, progress=False)
-    assert (run.rendered, run.skipped) == (3, 9)
+    assert (run.rendered, run.skipped) == (4, 8)
+    record_size = len((_sample(reference, 9) / "sample.json").read_bytes())
+    assert run.damaged == (
+        (3, ("MiddEval3/trainingF/000003: empty (the 10 files its record lists there are "
+             "missing)",)),
+        (5, (f"MiddEval3/trainingF/000005/im0.png: 1000 bytes, its record says {size} bytes "
+             "(truncated or replaced)",)),
+        (8, ("no completion record (records/000008.json); the sample is incomplete",)),
+        (9, (f"MiddEval3/trainingF/000009/sample.json: 21 bytes, its record says {record_size} "
+             "bytes (truncated or replaced)",)))
     _assert_same_tree(reference, out)
     assert verify_dataset(out, count=12) == []
+    assert run_dataset(config_file, out=out, progress=False).damaged == ()
+
+
+@pytest.mark.gl
+def test_the_dataset_command_says_which_samples_it_repaired_and_why(reference, config_file,
+                                                                    tmp_path):
+    from click.testing import CliRunner
+
+    from synth.cli import main as cli
+
+    out = _copy(reference, tmp_path / "ds")
+    _damage(out)
+    image = (_sample(reference, 5) / "im0.png").stat().st_size
+    result = CliRunner().invoke(cli, ["dataset", str(config_file), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[-5].startswith(
+        f"12 samples in {out}: 4 rendered (4 found damaged or incomplete and rendered again, "
+        "below), 8 already there, "), result.output
+    assert lines[-4:] == [
+        "  000003 rendered again: MiddEval3/trainingF/000003: empty (the 10 files its record "
+        "lists there are missing)",
+        f"  000005 rendered again: MiddEval3/trainingF/000005/im0.png: 1000 bytes, its record "
+        f"says {image} bytes (truncated or replaced)",
+        "  000008 rendered again: no completion record (records/000008.json); the sample is "
+        "incomplete",
+        "  000009 rendered again: MiddEval3/trainingF/000009/sample.json: 21 bytes, its record "
+        f"says {len((_sample(reference, 9) / 'sample.json').read_bytes())} bytes (truncated or "
+        "replaced)"]
+    _assert_same_tree(reference, out)
 
 
 @pytest.mark.gl
@@ -481,6 +526,22 @@ def test_same_size_corruption_is_left_to_verify(reference, config_file, tmp_path
     assert verify_dataset(out, checksums=False)[-1] == (
         "manifest.jsonl: does not match the samples' sample.json (rerun the dataset command to "
         "rewrite it)")
+
+
+@pytest.mark.gl
+def test_verify_reports_a_sample_json_that_is_not_json_instead_of_stopping(reference, tmp_path):
+    from synth.dataset.integrity import verify_dataset
+
+    out = _copy(reference, tmp_path / "ds")
+    record = _sample(out, 9) / "sample.json"
+    size = record.stat().st_size
+    record.write_text('{"index": 9, "seed": ')
+    problems = verify_dataset(out)
+    assert problems[0] == (f"MiddEval3/trainingF/000009/sample.json: 21 bytes, its record says "
+                           f"{size} bytes (truncated or replaced)")
+    assert problems[1].startswith(f"manifest.jsonl, manifest.csv: not checked ({record}: not a "
+                                  "sample record: invalid JSON"), problems
+    assert len(problems) == 2
 
 
 _TORN = """

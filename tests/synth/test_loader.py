@@ -89,6 +89,37 @@ def test_kitti_items_are_the_files(datasets):
     assert "disp_right" not in item
 
 
+# a wide view (fx = 18 px) of boxes: most pixels see nothing (no ground truth, mask 0); the long
+# baseline gives the boxes occluded pixels (mask 128)
+_OPEN_VIEW = """\
+name = "open-view"
+seed = 1
+count = 1
+
+[rig]
+width = 40
+height = 30
+fx = 18.0
+baseline = 2.0
+
+[scene]
+base = "boxes"
+"""
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("fmt", ["middlebury", "kitti"])
+def test_occlusion_holds_the_occluded_pixels_only_not_those_without_ground_truth(tmp_path, fmt,
+                                                                                renderer):
+    run_dataset(loads_config(_OPEN_VIEW), out=tmp_path / fmt, fmt=fmt, progress=False)
+    item = StereoDataset(tmp_path / fmt)[0]
+    assert (~item["valid"]).sum() > 100 and item["occlusion"].sum() > 10  # both kinds present
+    assert not (item["occlusion"] & ~item["valid"]).any()
+    sample = (load_middlebury_2014(tmp_path / fmt / "MiddEval3" / "trainingF" / "000000")
+              if fmt == "middlebury" else load_kitti_2015(tmp_path / fmt / "training", 0))
+    np.testing.assert_array_equal(item["occlusion"], sample.mask_left == 128)
+
+
 @pytest.mark.gl
 def test_middlebury_2014_items_are_the_middeval3_items(datasets):
     """The same config in the 2014 layout (``2014/NNNNNN/disp0.pfm``): the same arrays."""

@@ -28,7 +28,7 @@ height = 30
 base = {choice = ["slanted_plane", "flying"]}
 texture = "noise"
 """
-SHARD = 30_000  # bytes: a 40 x 30 sample is ~12 KB, so 3 samples a shard
+SHARD = 30_000  # bytes: a 40 x 30 sample is some 25 KB of members, so 2 samples a shard
 
 
 def _shards(root: Path) -> dict[str, bytes]:
@@ -77,7 +77,12 @@ def test_extension_and_leftovers_of_a_killed_run_give_the_same_shards(pair, tmp_
     _, reference = pair
     cfg = loads_config(CONFIG)
     out = tmp_path / "wds"
-    run_dataset(cfg, out=out, count=4, fmt="webdataset", shard_size=SHARD, progress=False)
+    full = json.loads((reference / "shards.json").read_text())["shards"][0]["count"]
+    # a smaller run ends on a short shard (one sample): written unsealed, so the extension
+    # renders its sample again and refills it
+    run_dataset(cfg, out=out, count=full + 1, fmt="webdataset", shard_size=SHARD, progress=False)
+    smaller = json.loads((out / "shards.json").read_text())["shards"]
+    assert [(s["count"], s["sealed"]) for s in smaller] == [(full, True), (1, False)]
     # what a run killed mid-way leaves: a shard being written, one renamed but not yet listed,
     # and a staged sample
     (out / ".shard-000009.tar.tmp-123").write_bytes(b"partial")

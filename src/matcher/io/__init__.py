@@ -43,6 +43,7 @@ from matcher.io.png import (
     deflate_for,
     encode_png,
     read_disparity,
+    read_grey_image,
     read_image,
 )
 from matcher.io.sample import StereoSample, check_stereo_images
@@ -82,6 +83,7 @@ __all__ = [
     "read_calib",
     "read_disparity",
     "read_flo",
+    "read_grey_image",
     "read_image",
     "read_kitti_calib",
     "read_pfm",

@@ -70,6 +70,7 @@ __all__ = [
     "deflate_for",
     "encode_png",
     "read_disparity",
+    "read_grey_image",
     "read_image",
 ]
 
@@ -159,6 +160,56 @@ def read_image(path: str | os.PathLike[str]) -> np.ndarray:
         if image.shape[2] == 4:
             return cv2.cvtColor(image, cv2.COLOR_BGRA2RGB)
         return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+    return image
+
+
+def read_grey_image(path: str | os.PathLike[str], *, what: str = "image",
+                    fix: str | None = None) -> np.ndarray:
+    """Read an 8-bit one-channel image: a mask, an object map, a label image.
+
+    A colour file whose channels are all equal (a grey image saved as RGB) is accepted as grey;
+    one with different channels is refused, not read by its first channel (a colour-coded mask
+    would be taken for one of its channels without a word).
+
+    Parameters
+    ----------
+    path : str or path-like
+    what : str
+        What the image is, for the message (``"mask"``).
+    fix : str, optional
+        Appended to the message of a colour file.
+
+    Returns
+    -------
+    (H, W) uint8 array
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    FormatError
+        If OpenCV cannot decode it, it is not 8-bit, or it has channels that differ.
+
+    Examples
+    --------
+    >>> import tempfile, cv2, numpy as np
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     _ = cv2.imwrite(f"{d}/m.png", np.array([[[0, 255, 0]]], np.uint8))
+    ...     read_grey_image(f"{d}/m.png", what="mask")
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.FormatError: .../m.png: mask must be one channel (grey) PNG, got 3 channels
+    """
+    path = Path(path)
+    image = _imread(path, cv2.IMREAD_UNCHANGED)
+    if image.dtype != np.uint8:
+        raise FormatError(f"{path}: {what} must be an 8-bit PNG, got dtype {image.dtype}")
+    if image.ndim == 3:
+        if not (image == image[:, :, :1]).all():
+            tail = f"; {fix}" if fix else ""
+            raise FormatError(f"{path}: {what} must be one channel (grey) PNG, got "
+                              f"{image.shape[2]} channels{tail}")
+        image = np.ascontiguousarray(image[:, :, 0])
     return image
 
 

@@ -133,11 +133,22 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
                       shard_size=shard_size, disp_encoding=disp_encoding, indices=indices)
     if run.indices != range(run.count):
         click.echo(f"samples {run.indices.start}:{run.indices.stop} of {run.count} in {run.out}: "
-                   f"{run.rendered} rendered, {run.skipped} already there, {run.seconds:.1f} s; "
+                   f"{_rendered(run)}, {run.skipped} already there, {run.seconds:.1f} s; "
                    "no manifest written: once every part has ended, rerun without --indices")
-        return
-    click.echo(f"{run.count} samples in {run.out}: {run.rendered} rendered, {run.skipped} already "
-               f"there, {run.seconds:.1f} s")
+    else:
+        click.echo(f"{run.count} samples in {run.out}: {_rendered(run)}, {run.skipped} already "
+                   f"there, {run.seconds:.1f} s")
+    for index, problems in run.damaged:
+        more = f" (and {len(problems) - 2} more)" if len(problems) > 2 else ""
+        click.echo(f"  {index:06d} rendered again: {'; '.join(problems[:2])}{more}")
+
+
+def _rendered(run) -> str:
+    """``N rendered``, and how many of them were found damaged (listed after the summary)."""
+    if not run.damaged:
+        return f"{run.rendered} rendered"
+    return (f"{run.rendered} rendered ({len(run.damaged)} found damaged or incomplete and rendered "
+            "again, below)")
 
 
 def _compare(a: str, b: str, *, require_bytes: bool) -> None:

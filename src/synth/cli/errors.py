@@ -5,9 +5,10 @@
 
 ==========  ==============================================================================
 exit 2      usage: a bad parameter, a bad configuration, scene or dataset file, a file of
-            the wrong format, a missing input file (``ParameterError``, ``ConfigError``,
-            ``SceneError``, ``DatasetError``, ``FormatError``, ``FileNotFoundError``; click's
-            own usage errors too)
+            the wrong format, a missing input file or a directory given for one
+            (``ParameterError``, ``ConfigError``, ``SceneError``, ``DatasetError``,
+            ``FormatError``, ``FileNotFoundError``, ``IsADirectoryError``; click's own usage
+            errors too)
 exit 1      environment: the GL backend is missing or failed (``BackendError``), a dataset
             sample failed (``SampleError``), an OS error on a path (no space left, read-only,
             permission denied, a file where a directory should be), out of memory; and an
@@ -81,7 +82,7 @@ def describe_error(exc: BaseException) -> tuple[str, int]:
         if isinstance(cause, OSError) and not isinstance(cause, FileNotFoundError):
             environment = True
         return str(exc), ENVIRONMENT if environment else USAGE
-    if isinstance(exc, FileNotFoundError):
+    if isinstance(exc, (FileNotFoundError, IsADirectoryError)):  # a path the caller chose
         return _os_message(exc), USAGE
     if isinstance(exc, OSError):
         return _os_message(exc), ENVIRONMENT

@@ -55,7 +55,7 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
               help="Divide an 8/16-bit PNG ground truth by this (e.g. 3 for Middlebury third size).")
 @click.option("--disp-divisor", default=None, type=float, help="Same, for a PNG estimate.")
 @click.option("--mask", default=None, type=click.Path(dir_okay=False, path_type=Path),
-              help="Occlusion mask PNG (255 = non-occluded); adds the nonocc region.")
+              help="Occlusion mask PNG, grey (255 = non-occluded); adds the nonocc region.")
 @click.option("--delta", default=3.0, show_default=True, type=float, help="PoBMP error threshold (px).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 @click.option("--benchmark", "benchmark", default=None,
@@ -63,7 +63,8 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
               help="Score as that benchmark's own code does (MiddEval3 evaldisp, KITTI 2015 devkit, "
                    "ETH3D two-view), each figure labelled with its convention; 'all' prints the three.")
 @click.option("--obj-map", "obj_map", default=None, type=click.Path(dir_okay=False, path_type=Path),
-              help="KITTI obj_map PNG (0 = background): splits --benchmark kitti into bg/fg.")
+              help="KITTI obj_map PNG, grey (0 = background): splits --benchmark kitti into "
+                   "bg/fg.")
 @click.option("--ndisp", default=None, type=int,
               help="calib.txt's ndisp for --benchmark middlebury (estimates are clipped to it).")
 def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json, benchmark, obj_map,

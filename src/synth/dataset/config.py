@@ -27,7 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from stereoforge.errors import ConfigError, StereoforgeError
-from stereoforge.validation import check_keys, describe
+from stereoforge.validation import check_input_file, check_keys, describe
 from synth._toml import TomlSource, parse_toml, read_toml_text
 from synth.camera import Defocus, Distortion, RigErrors
 from synth.dataset.config_keys import (
@@ -444,7 +444,6 @@ def load_config(config: str | Path | DatasetConfig) -> DatasetConfig:
     if path.suffix.lower() != ".toml" and str(config) in EXAMPLES:
         res = resources.files("synth.dataset") / "configs" / f"{config}.toml"
         return loads_config(res.read_text(encoding="utf-8"), source=f"{config}.toml")
-    if not path.is_file():
-        raise FileNotFoundError(f"dataset config {path} does not exist; pass a .toml file or "
-                                f"one of the examples: {', '.join(EXAMPLES)}")
+    check_input_file(path, "dataset config", suffixes=(".toml",),
+                     fix=f"pass a .toml file or one of the examples: {', '.join(EXAMPLES)}")
     return loads_config(read_toml_text(path), source=str(path))

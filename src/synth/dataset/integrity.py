@@ -22,6 +22,7 @@ import re
 from collections.abc import Iterable
 from pathlib import Path
 
+from stereoforge.errors import DatasetError
 from synth._json import json_bytes
 from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
                                   check_layout, dataset_format, record_path, sample_dir,
@@ -172,7 +173,11 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
                             "(the next run removes it)")
         else:
             problems.append(f"{entry.name}: extra {'directory' if entry.is_dir() else 'file'}")
-    jsonl, table = manifest_bytes(read_manifest(root))
+    try:
+        records = read_manifest(root)
+    except DatasetError as exc:  # a sample.json that is not JSON: reported above, by its file
+        return [*problems, f"manifest.jsonl, manifest.csv: not checked ({exc})"]
+    jsonl, table = manifest_bytes(records)
     for name, want in (("manifest.jsonl", jsonl), ("manifest.csv", table)):
         path = root / name
         if not path.is_file() or path.read_bytes() != want:
@@ -180,7 +185,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
                             "dataset command to rewrite it)")
     if fmt == "middlebury":
         scenes = root / MIDDEVAL_ROOT / SCENE_LIST
-        want = "".join(f"{r['dir']}\n" for r in read_manifest(root))
+        want = "".join(f"{r['dir']}\n" for r in records)
         if not scenes.is_file() or scenes.read_text() != want:
             problems.append(f"{MIDDEVAL_ROOT}/{SCENE_LIST}: does not list the complete samples "
                             "(rerun the dataset command to rewrite it)")

@@ -94,6 +94,11 @@ class DatasetRun:
         Wall time of the run.
     indices : range
         The samples this run covered (``range(count)`` unless it was a part).
+    damaged : tuple of (int, tuple of str)
+        The rendered samples that were there but damaged or incomplete (a truncated or missing
+        file, an emptied folder, no or an unreadable completion record), in index order, each
+        with what was wrong: one line a file (:func:`synth.dataset.integrity.sample_problems`),
+        or one for an emptied folder. Samples never rendered before are not in it.
     """
 
     out: Path | FsPath
@@ -102,6 +107,26 @@ class DatasetRun:
     skipped: int
     seconds: float
     indices: range = range(0)
+    damaged: tuple[tuple[int, tuple[str, ...]], ...] = ()
+
+
+def _damage(out: Path | FsPath, fmt: str, index: int) -> tuple[str, ...]:
+    """What is wrong with sample ``index`` if some of it is there (its folder or its record);
+    empty for a sample never rendered."""
+    folder, record = sample_dir(out, fmt, index), record_path(out, index)
+    if not folder.exists() and not record.exists():
+        return ()
+    own = f"{index:06d}: "  # "000008: no completion record ...": the index is said once
+    problems = [p.removeprefix(own) for p in sample_problems(out, fmt, index)]
+    where = sample_dir(Path(), fmt, index).as_posix()
+    if problems == ["missing"]:  # the record is there, the folder is not
+        return (f"{where}: missing (its completion record {record.parent.name}/{record.name} "
+                "is there)",)
+    if folder.is_dir() and not any(folder.iterdir()):  # one line, not one per file
+        inside = [p for p in problems if p.startswith(f"{where}/")]
+        return (f"{where}: empty (the {len(inside)} files its record lists there are missing)",
+                *(p for p in problems if not p.startswith(f"{where}/")))
+    return tuple(problems)
 
 
 # --------------------------------------------------------------------------- manifest
@@ -296,6 +321,7 @@ def run_dataset(
             disp_encoding=disp_encoding)
         todo = packer.todo(count) if packer else [i for i in indices
                                                  if sample_problems(out, fmt, i)]
+        damaged = tuple((i, found) for i in todo if (found := _damage(out, fmt, i)))
         for i in todo:
             remove_tree(record_path(out, i))
             remove_tree(sample_dir(out, fmt, i))
@@ -324,7 +350,7 @@ def run_dataset(
             if not part:  # a part leaves the manifests to a whole run (synth.dataset.parts)
                 write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
     return DatasetRun(out=out, count=count, rendered=len(todo), skipped=len(indices) - len(todo),
-                      seconds=time.perf_counter() - t0, indices=indices)
+                      seconds=time.perf_counter() - t0, indices=indices, damaged=damaged)
 
 
 def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from matcher.io import read_disparity, read_image
+from matcher.io import read_disparity, read_grey_image
 from matcher import eth3d_two_view, evaluate, kitti_2015, middlebury_v3
 
 __all__ = ["BENCHMARKS", "CONVENTIONS", "evaluate_benchmarks", "evaluate_files"]
@@ -22,9 +22,14 @@ CONVENTIONS = {
 }
 
 
-def _grey(path: str | Path):
-    image = read_image(path)
-    return image[..., 0] if image.ndim == 3 else image
+#: What a colour mask or object map should be instead (stereoforge eval --mask, --obj-map).
+_MASK_FIX = ("save it as a grey PNG: 255 visible in both views, 128 occluded, 0 no ground truth "
+             "(mask0nocc.png)")
+_OBJ_MAP_FIX = "save it as a grey PNG: 0 background, 1..255 objects (KITTI's obj_map)"
+
+
+def _mask(path: str | Path):
+    return read_grey_image(path, what="mask", fix=_MASK_FIX)
 
 
 def evaluate_benchmarks(
@@ -52,7 +57,7 @@ def evaluate_benchmarks(
             raise ValueError(f"--benchmark: expected one of {', '.join(BENCHMARKS)}, got {name!r}")
     estimate = read_disparity(disp, divisor=disp_divisor)
     truth = read_disparity(gt, divisor=gt_divisor)
-    occ = None if mask is None else _grey(mask)
+    occ = None if mask is None else _mask(mask)
     regions = ("all",) if occ is None else ("all", "nonocc")
     report: dict[str, dict] = {}
     for name in benchmarks:
@@ -67,8 +72,9 @@ def evaluate_benchmarks(
                 m = eth3d_two_view(estimate, truth, occlusion_mask=occ, region=region)
                 report[f"eth3d {region}"] = note | dataclasses.asdict(m)
         else:
-            k = kitti_2015(estimate, truth, occlusion_mask=occ,
-                           obj_map=None if obj_map is None else _grey(obj_map))
+            objects = None if obj_map is None else read_grey_image(obj_map, what="obj_map",
+                                                                    fix=_OBJ_MAP_FIX)
+            k = kitti_2015(estimate, truth, occlusion_mask=occ, obj_map=objects)
             report["kitti occ"] = note | dataclasses.asdict(k.occ)
             if k.noc is not None:
                 report["kitti noc"] = note | dataclasses.asdict(k.noc)
@@ -94,7 +100,8 @@ def evaluate_files(
     gt_divisor, disp_divisor : float, optional
         Divisor of an 8-bit PNG.
     mask : str or Path, optional
-        Occlusion mask PNG (255 = visible in both views); adds the ``nonocc`` region.
+        Occlusion mask PNG, grey (255 = visible in both views; a colour PNG is refused unless
+        its channels are equal); adds the ``nonocc`` region.
     delta : float
         PoBMP threshold in pixels.
 
@@ -108,10 +115,7 @@ def evaluate_files(
     truth = read_disparity(gt, divisor=gt_divisor)
     report = {"all": dataclasses.asdict(evaluate(estimate, truth, delta=delta))}
     if mask is not None:
-        occ = read_image(mask)
-        if occ.ndim == 3:
-            occ = occ[..., 0]
         report["nonocc"] = dataclasses.asdict(
-            evaluate(estimate, truth, delta=delta, region="nonocc", occlusion_mask=occ)
+            evaluate(estimate, truth, delta=delta, region="nonocc", occlusion_mask=_mask(mask))
         )
     return report

@@ -14,6 +14,7 @@ from scenes import PRESETS
 from scenes.spec import TEXTURE_KINDS
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
+from stereoforge.validation import check_input_file
 from synth._toml import TomlSource, parse_toml, read_toml_text
 from synth.rig import StereoRig
 
@@ -236,8 +237,7 @@ def load_study_config(config: str | Path | StudyConfig) -> StudyConfig:
         if Path(name).suffix != ".toml" and candidate in shipped:
             res = resources.files("synth.dataset") / "configs" / f"{candidate}.toml"
             return loads_study_config(res.read_text(encoding="utf-8"), source=f"{candidate}.toml")
-    path = Path(config)
-    if not path.is_file():
-        raise FileNotFoundError(f"study config {path} does not exist; pass a .toml file or one "
-                                f"of the shipped studies: {', '.join(shipped)}")
+    path = check_input_file(config, "study config", suffixes=(".toml",),
+                            fix=f"pass a .toml file or one of the shipped studies: "
+                                f"{', '.join(shipped)}")
     return loads_study_config(read_toml_text(path, StudyConfigError), source=str(path))
