@@ -26,7 +26,8 @@ import cv2
 import numpy as np
 
 __all__ = ["REGIONS", "TEXTURELESS_ENERGY", "TEXTURELESS_WINDOW", "DISCONTINUITY_JUMP",
-           "DISCONTINUITY_RADIUS", "THRESHOLDS", "SCORE_NAMES", "region_masks", "region_scores"]
+           "DISCONTINUITY_RADIUS", "THRESHOLDS", "SCORE_NAMES", "LR_TOLERANCE",
+           "occlusion_from_disparities", "region_masks", "region_scores"]
 
 REGIONS = ("all", "nonocc", "occluded", "textureless", "discontinuity")
 #: Mean squared gradient (grey levels^2 per pixel^2) below which a pixel is textureless.
@@ -41,6 +42,9 @@ DISCONTINUITY_RADIUS = 3
 THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
 SCORE_NAMES = ("bad_0_5", "bad_1", "bad_2", "bad_4", "avgerr", "rms", "a50", "a90", "a99",
                "coverage")
+#: Largest difference (pixels) between a left ground-truth disparity and the right one at its
+#: match for the left pixel to count as visible in both views.
+LR_TOLERANCE = 1.0
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
@@ -71,6 +75,55 @@ def _depth_edges(gt: np.ndarray, has_gt: np.ndarray, jump: float) -> np.ndarray:
         edges[tuple(a)] |= step & va
         edges[tuple(b)] |= step & vb
     return edges
+
+
+def occlusion_from_disparities(disp_left: np.ndarray, disp_right: np.ndarray | None = None, *,
+                               tolerance: float = LR_TOLERANCE) -> np.ndarray:
+    """The occlusion mask of a left view from ground truth: a left-right check.
+
+    A left pixel ``(y, x)`` with ground truth ``d`` matches the right pixel
+    ``(y, round(x - d))``; it is visible in both views (255) when that pixel lies in the right
+    image and the right disparity there is within ``tolerance`` of ``d``, else occluded (128:
+    hidden, outside the right view, or no right ground truth there to confirm it); 0 = no left
+    ground truth. Without ``disp_right``, the right view's disparity is the left ground truth
+    warped to it, the nearest surface (the largest disparity) winning at each right pixel.
+
+    Parameters
+    ----------
+    disp_left : (H, W) float array
+        Left ground truth, inf or NaN = unknown.
+    disp_right : (H, W) float array, optional
+        Right ground truth (a right pixel at ``x`` matches the left pixel at ``x + d``).
+    tolerance : float
+        See :data:`LR_TOLERANCE`.
+
+    Returns
+    -------
+    (H, W) uint8 array
+        255, 128 or 0 (``mask0nocc.png``'s codes).
+
+    Examples
+    --------
+    >>> gt = np.array([[1.0, 1.0, 1.0, 1.0, 3.0, 3.0, np.inf]])  # a near object on the right
+    >>> occlusion_from_disparities(gt).tolist()  # x=0 leaves the right view, it hides x=2, 3
+    [[128, 255, 128, 128, 255, 255, 0]]
+    """
+    left = np.asarray(disp_left, np.float64)
+    h, w = left.shape
+    known = np.isfinite(left)
+    xs = np.broadcast_to(np.arange(w), (h, w))
+    target = np.rint(xs - np.where(known, left, 0.0)).astype(np.int64)
+    inside = known & (target >= 0) & (target < w)
+    rows = np.broadcast_to(np.arange(h)[:, None], (h, w))
+    if disp_right is None:
+        right = np.full((h, w), -np.inf)
+        np.maximum.at(right, (rows[inside], target[inside]), left[inside])
+    else:
+        right = np.asarray(disp_right, np.float64)
+    seen = np.full((h, w), np.nan)
+    seen[inside] = right[rows[inside], target[inside]]
+    visible = inside & np.isfinite(seen) & (np.abs(seen - left) <= tolerance)
+    return np.where(visible, 255, np.where(known, 128, 0)).astype(np.uint8)
 
 
 def region_masks(gt: np.ndarray, occlusion: np.ndarray, clean_left: np.ndarray, *,
