@@ -28,7 +28,7 @@ __all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder"
            "read_pair_folder", "max_disparity_for"]
 
 RECORD = "files.json"
-_VERSION = 1
+_VERSION = 2  # 2: each seed its own base scene (synth.validate.family)
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,13 @@ class PairSpec:
     @property
     def folder(self) -> str:
         return f"pairs/{self.axis}/{self.value:g}_s{self.seed}"
+
+    @property
+    def scene(self) -> str:
+        """The base scene of the seed (:func:`synth.validate.family.member_name`)."""
+        from synth.validate.family import member_name
+
+        return member_name(self.seed)
 
 
 def _canon(obj: Any) -> str:

@@ -83,8 +83,8 @@ def plan(suite: str, axes: Sequence[str] | None = None) -> list:
     for name in names:
         axis = get_axis(name)
         for value in axis.values(suite):
-            cfg = axis_config(suite, axis, value)
-            out.extend(PairSpec(name, value, seed, cfg) for seed in SUITES[suite]["seeds"])
+            out.extend(PairSpec(name, value, seed, axis_config(suite, axis, value, seed))
+                       for seed in SUITES[suite]["seeds"])
     return out
 
 
