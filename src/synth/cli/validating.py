@@ -36,12 +36,15 @@ def split_against(text: str) -> list[str]:
 @timeout_option
 @click.option("--axes", default=None, metavar="A,B,...",
               help="Only these axes, comma-separated (default: every axis; see docs/validate.md).")
+@click.option("--real", "real", multiple=True, metavar="SPEC",
+              help="Real scenes scored beside the axes (repeatable): middlebury:DIR[:DIVISOR], "
+                   "kitti:DIR[:FIRST-LAST] or skimage:motorcycle.")
 @click.option("--fail-on", "fail_on", default=None, type=click.Choice(["properties"]),
               help="Exit with status 1 when a required property fails.")
 @backend_option
 @click.option("--skip-battery", is_flag=True, hidden=True,
               help="Internal: pairs, estimates and results.csv only (no properties, no report).")
-def validate(matcher, out, suite, against, workers, timeout, axes, fail_on, backend,
+def validate(matcher, out, suite, against, workers, timeout, axes, real, fail_on, backend,
              skip_battery) -> None:
     """Validate MATCHER (NAME[:WINDOW], py:MODULE:FUNCTION, py:FILE.py:FUNCTION or
     cmd:TEMPLATE) on every axis of the suite, against the references, into --out.
@@ -64,7 +67,7 @@ def validate(matcher, out, suite, against, workers, timeout, axes, fail_on, back
 
     res = run_validate(matcher, out=out, suite=suite, against=split_against(against),
                        workers=workers, timeout=timeout, backend=backend, progress=True,
-                       axes=chosen, battery=not skip_battery)
+                       axes=chosen, battery=not skip_battery, real=real)
     click.echo(f"pairs: {res.pairs_rendered} rendered, {res.pairs_reused} reused; estimates: "
                f"{res.estimates_computed} computed, {res.estimates_reused} reused; "
                f"{res.seconds['total']:.1f} s")

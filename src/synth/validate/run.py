@@ -4,16 +4,17 @@ The run, resumable like a dataset (every record is written atomically; a rerun s
 and verifies it):
 
 1. **pairs**: every axis x value x seed of the suite (:mod:`synth.validate.axes`) is rendered
-   once into ``pairs/...`` (:mod:`synth.validate.pairs`), with ``--workers`` GL processes;
+   once into ``pairs/...`` (:mod:`synth.validate.pairs`), with ``--workers`` GL processes, and
+   every ``--real`` scene is written into ``pairs/real/...`` (:mod:`synth.validate.real`);
 2. **estimates**: the matcher and each reference (``--against``) run on exactly those pairs, in
    this process, one after the other (``py:`` matchers in their own child process, see
-   :mod:`matcher.adapters`); each writes ``estimates/<matcher>/<axis>/<value>_s<seed>.pfm`` and
-   a ``.json`` record of its scores per region, seconds and error. A failure (crash, timeout,
+   :mod:`matcher.adapters`); each writes ``estimates/<matcher>/<pair folder>.pfm`` and a
+   ``.json`` record of its scores per region, seconds and error. A failure (crash, timeout,
    wrong shape) is recorded, scored as "no estimate", and the run goes on;
 3. ``results.csv`` (:data:`COLUMNS`), rebuilt from the records in a fixed order: matchers as
-   given, axes in registry order, values, seeds, regions (:data:`matcher.regions.REGIONS`);
-   the same suite gives the same bytes except the timing columns ``seconds`` and
-   ``mpix_disp_per_s``;
+   given, axes in registry order, values, seeds, then the real scenes, regions
+   (:data:`matcher.regions.REGIONS`); the same suite gives the same bytes except the timing
+   columns ``seconds`` and ``mpix_disp_per_s``;
 4. the property battery (``properties.json``) and ``report.html``
    (:func:`_battery_and_report`).
 """
@@ -32,9 +33,10 @@ from typing import Any, Sequence
 
 from matcher.io import atomic_write_bytes
 
-__all__ = ["COLUMNS", "DEFAULT_AGAINST", "ValidateResult", "plan", "run_validate"]
+__all__ = ["COLUMNS", "DEFAULT_AGAINST", "ValidateResult", "estimates_folder", "plan",
+           "run_validate"]
 
-COLUMNS = ("matcher", "axis", "value", "seed", "region", "bad_0_5", "bad_1", "bad_2", "bad_4",
+COLUMNS = ("matcher", "axis", "value", "seed", "scene", "region", "bad_0_5", "bad_1", "bad_2", "bad_4",
            "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
            "error", "sample", "estimate")
 #: Timing columns: they differ between runs of the same suite.
@@ -108,6 +110,11 @@ def _slug(spec: str) -> str:
     return f"{readable}-{hashlib.sha256(spec.encode()).hexdigest()[:8]}"
 
 
+def estimates_folder(spec: str) -> str:
+    """Where a matcher's estimates go in a validate folder: ``estimates/<slug>``."""
+    return f"estimates/{_slug(spec)}"
+
+
 def _json(obj: Any) -> bytes:
     return (json.dumps(obj, indent=1, sort_keys=True, allow_nan=False) + "\n").encode()
 
@@ -122,7 +129,7 @@ def _estimate_record(matcher: Any, spec: Any, sample: dict, out: Path) -> tuple[
     from matcher.regions import REGIONS, region_scores
     from synth.validate.pairs import read_pair_folder
 
-    base = f"estimates/{_slug(matcher.spec)}/{spec.axis}/{spec.value:g}_s{spec.seed}"
+    base = f"{estimates_folder(matcher.spec)}/{spec.folder.removeprefix('pairs/')}"
     rec_path, pfm_path = out / f"{base}.json", out / f"{base}.pfm"
     fingerprint = hashlib.sha256(f"{matcher.spec}\n{sample['fingerprint']}".encode()).hexdigest()
     try:
@@ -174,9 +181,38 @@ def _rows(matcher: Any, spec: Any, record: dict) -> list[dict]:
     if record["error"] is None and seconds > 0:
         rate = record["pixels"] * record["max_disparity"] / seconds / 1e6
     base = {"matcher": matcher.spec, "axis": spec.axis, "value": spec.value, "seed": spec.seed,
-            "seconds": seconds, "mpix_disp_per_s": rate, "error": record["error"] or "",
-            "sample": spec.folder, "estimate": record["estimate"]}
+            "scene": spec.scene, "seconds": seconds, "mpix_disp_per_s": rate,
+            "error": record["error"] or "", "sample": spec.folder, "estimate": record["estimate"]}
     return [{**base, "region": n, **record["scores"][n]} for n in REGIONS]
+
+
+def _pairs(specs: list, out: Path, suite: str, backend: str, workers: int, progress: bool
+           ) -> tuple[dict[int, dict], int]:
+    """Every pair folder of ``specs`` ready under ``out``: verified and reused, made (real
+    scenes, in this process) or rendered (``workers`` GL processes). ``({index: sample
+    record}, rendered or made)``."""
+    from synth.dataset.engine import run_tasks
+    from synth.progress import progress as progress_bar
+    from synth.validate.axes import SUITES
+    from synth.validate.pairs import PairSpec, verify_pair_folder
+    from synth.validate.real import write_real_folder
+
+    samples = {i: verify_pair_folder(s, out) for i, s in enumerate(specs)}
+    pending = [i for i, rec in samples.items() if rec is None]
+    for i in [i for i in pending if not isinstance(specs[i], PairSpec)]:
+        samples[i] = write_real_folder(specs[i], out)
+    synthetic = [i for i in pending if isinstance(specs[i], PairSpec)]
+    size = SUITES[suite]
+    task = _PairTask(specs, out, backend, size["width"], size["height"])
+    bar = progress_bar(total=len(specs), initial=len(specs) - len(synthetic), enabled=progress,
+                       desc=f"validate {suite}: pairs", unit="pair")
+    try:
+        for index, record in run_tasks(task, synthetic, workers=workers):
+            samples[index] = record
+            bar.update(1)
+    finally:
+        bar.close()
+    return samples, len(pending)
 
 
 def _battery_and_report(matcher: Any, out: Path, suite: str,
@@ -196,7 +232,8 @@ def _battery_and_report(matcher: Any, out: Path, suite: str,
 def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
                  against: Sequence[str] = DEFAULT_AGAINST, workers: int = 1,
                  timeout: float = 60.0, backend: str = "auto", progress: bool = True,
-                 axes: Sequence[str] | None = None, battery: bool = True) -> ValidateResult:
+                 axes: Sequence[str] | None = None, battery: bool = True,
+                 real: Sequence[str] = ()) -> ValidateResult:
     """Validate ``matcher`` (a MATCHER string) on every axis of ``suite`` against references.
 
     Parameters
@@ -216,16 +253,17 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
         Only these axes (default: every registered axis).
     battery : bool
         Run the property battery and write the report (off: pairs, estimates and results only).
+    real : sequence of str
+        ``--real`` SPECs (:mod:`synth.validate.real`): real scenes scored beside the axes.
 
     Returns
     -------
     ValidateResult
     """
     from matcher.adapters import resolve_matcher
-    from synth.dataset.engine import run_tasks
     from synth.progress import progress as progress_bar
-    from synth.validate.axes import SUITES
-    from synth.validate.pairs import verify_pair_folder
+    from synth.validate.axes import AXES
+    from synth.validate.real import resolve_real
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers: expected an int >= 1, got {workers!r}")
@@ -237,25 +275,16 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
         seconds[stage] = now - clock[-1]
         clock.append(now)
 
-    specs = plan(suite, axes)
+    axis_names = list(AXES) if axes is None else list(axes)
+    reals = resolve_real(real)
+    specs = [*plan(suite, axis_names), *reals]
     main = resolve_matcher(matcher, timeout=timeout)
     refs = [resolve_matcher(a, timeout=timeout) for a in against if a.strip() != main.spec]
     matchers = [main, *[r for i, r in enumerate(refs) if r.spec not in
                         {x.spec for x in refs[:i]}]]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    samples = {i: verify_pair_folder(s, out) for i, s in enumerate(specs)}
-    pending = [i for i, rec in samples.items() if rec is None]
-    size = SUITES[suite]
-    task = _PairTask(specs, out, backend, size["width"], size["height"])
-    bar = progress_bar(total=len(specs), initial=len(specs) - len(pending), enabled=progress,
-                       desc=f"validate {suite}: pairs", unit="pair")
-    try:
-        for index, record in run_tasks(task, pending, workers=workers):
-            samples[index] = record
-            bar.update(1)
-    finally:
-        bar.close()
+    samples, made = _pairs(specs, out, suite, backend, workers, progress)
     lap("pairs")
     rows, computed, reused = [], 0, 0
     bar = progress_bar(total=len(specs) * len(matchers), enabled=progress,
@@ -276,11 +305,11 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     lap("matching")
     failed: tuple[str, ...] = ()
     if battery:
-        failed = _battery_and_report(main, out, suite, [r.spec for r in matchers[1:]])
+        failed = _battery_and_report(main, out, suite, [m.spec for m in matchers[1:]])
         main.close()
     lap("battery")
     seconds["total"] = clock[-1] - clock[0]
-    return ValidateResult(out=out, results=results, pairs_rendered=len(pending),
-                          pairs_reused=len(specs) - len(pending), estimates_computed=computed,
+    return ValidateResult(out=out, results=results, pairs_rendered=made,
+                          pairs_reused=len(specs) - made, estimates_computed=computed,
                           estimates_reused=reused, failed_properties=failed,
                           battery_ran=battery, seconds=seconds)
