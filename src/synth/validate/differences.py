@@ -78,17 +78,27 @@ def _key(value: object) -> str:
         return str(value)
 
 
+def _index(rows: Sequence[dict], metric: str) -> dict[tuple[str, str], dict[tuple, dict]]:
+    """``{(axis, region): {(value, seed, scene): {matcher: metric}}}`` of the scored rows."""
+    index: dict[tuple[str, str], dict[tuple, dict]] = {}
+    for r in rows:
+        if r[metric] is not None:
+            key = (_key(r["value"]), _key(r["seed"]), str(r.get("scene", "")))
+            index.setdefault((r["axis"], r["region"]), {}).setdefault(key, {})[r["matcher"]] = \
+                r[metric]
+    return index
+
+
+def _paired(samples: dict[tuple, dict], a: str, b: str, scene: str | None) -> list[float]:
+    return [m[a] - m[b] for key, m in sorted(samples.items())
+            if a in m and b in m and (scene is None or key[2] == scene)]
+
+
 def paired_differences(rows: Sequence[dict], a: str, b: str, *, axis: str, region: str,
                        metric: str = HEADLINE, scene: str | None = None) -> list[float]:
     """``metric(a) - metric(b)`` for every sample (value, seed, scene) of ``axis`` and
     ``region`` both scored; only scene ``scene`` if given."""
-    index: dict[tuple, dict[str, float]] = {}
-    for r in rows:
-        if r["axis"] == axis and r["region"] == region and r[metric] is not None and (
-                scene is None or r.get("scene") == scene):
-            key = (_key(r["value"]), _key(r["seed"]), str(r.get("scene", "")))
-            index.setdefault(key, {})[r["matcher"]] = r[metric]
-    return [m[a] - m[b] for _, m in sorted(index.items()) if a in m and b in m]
+    return _paired(_index(rows, metric).get((axis, region), {}), a, b, scene)
 
 
 def _verdict(mean: float, half: float) -> str:
@@ -112,12 +122,12 @@ def difference_table(rows: Sequence[dict], matcher: str, others: Sequence[str]) 
     scenes = list(dict.fromkeys(r.get("scene", "") for r in rows if r["axis"] == _REAL))
     groups = [(a, None) for a in axes] + ([(_REAL, None)] if scenes else []) + [
         (_REAL, s) for s in scenes]
+    index = _index(rows, HEADLINE)
     table = []
     for other in others:
         for axis, scene in groups:
             for region in _REGIONS:
-                diffs = paired_differences(rows, matcher, other, axis=axis, region=region,
-                                           scene=scene)
+                diffs = _paired(index.get((axis, region), {}), matcher, other, scene)
                 if not diffs:
                     continue
                 m, h, n = t_interval([100.0 * d for d in diffs])
