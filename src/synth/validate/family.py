@@ -10,15 +10,18 @@ parameter stream), so an axis that sets one key changes that key and no other dr
 The members, in order (the quick suite's three seeds cover the first three):
 
 - ``boxes``: four boxes in front of a wall, 1-3 extra box occluders, noise texture;
-- ``flying``: 6-10 boxes, spheres and cylinders (layout from the seed), photographs on most
-  objects, noise on the others;
+- ``flying``: 6-10 boxes, spheres and cylinders (layout from the seed), photographs on about
+  a third of the objects (the wall included), noise on the others;
 - ``slanted``: a slanted plane behind 2-3 spheres or cylinders, photographs or noise;
 - ``moebius``: a Moebius strip (a curved, twisted surface) in front of a wall, one occluder,
   photographs.
 
-Photographs are scikit-image's (no download): grey (brick, gravel, grass) and colour (coffee,
-chelsea, astronaut) ones. Two axes need procedural textures and drop the photographs of a
-member (``edge_density``: the closed-loop search; ``repetitive_period``: stripes).
+Photographs are scikit-image's brick, gravel and grass (no download): their mean frequencies
+(0.07-0.15 cycles per photo pixel) are near the textures' 0.125 cycles per image pixel, and a
+photograph is sampled at one texel per photo pixel, so these cost about what a noise texture
+does; the colour ones (0.02-0.04) made a pair 5-10 times slower to texture. Two axes need
+procedural textures and drop the photographs of a member (``edge_density``: the closed-loop
+search; ``repetitive_period``: stripes).
 """
 
 from __future__ import annotations
