@@ -34,8 +34,9 @@ def real_run(tiny_suite, middlebury_dir, tmp_path_factory, renderer):
     return out
 
 
-SCENES = [f"middlebury:third/{s}" for s in
-          ("Baby1", "Cloth2", "Flowerpots", "Midd1", "Moebius", "Reindeer")] + ["skimage:motorcycle"]
+SCENES = [*(f"middlebury:third/{s}" for s in
+            ("Baby1", "Cloth2", "Flowerpots", "Midd1", "Moebius", "Reindeer")),
+          "skimage:motorcycle"]
 
 
 @pytest.mark.gl

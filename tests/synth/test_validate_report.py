@@ -23,8 +23,8 @@ from matcher.io import atomic_write_bytes, encode_png, write_pfm
 from synth.validate.properties import run_battery
 from synth.validate.report import paired_differences, t_interval, write_report
 
-COLUMNS = ("matcher", "axis", "value", "seed", "scene", "region", "bad_0_5", "bad_1", "bad_2", "bad_4",
-           "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
+COLUMNS = ("matcher", "axis", "value", "seed", "scene", "region", "bad_0_5", "bad_1", "bad_2",
+           "bad_4", "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
            "error", "sample", "estimate")
 REGIONS = ("all", "nonocc", "occluded", "textureless", "discontinuity")
 

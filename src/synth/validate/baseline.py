@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import shutil
 from pathlib import Path
 from typing import Sequence
@@ -137,8 +138,6 @@ def check_same_pairs(base: FinishedRun, *, suite: str, axes: Sequence[str],
 
 def _copy_tree(src: Path, dst: Path) -> None:
     """Copy folder ``src`` to ``dst`` through a temporary name (``dst`` appears whole)."""
-    import os
-
     tmp = dst.parent / f".{dst.name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     dst.parent.mkdir(parents=True, exist_ok=True)
@@ -151,14 +150,14 @@ def _copy_tree(src: Path, dst: Path) -> None:
         raise
 
 
-def adopt_pairs(base: FinishedRun, specs: Sequence, out: Path) -> dict[int, dict]:
-    """Copy into ``out`` every pair of ``specs`` that ``out`` lacks and the baseline holds
-    verified; ``{index in specs: sample record}`` of the copies."""
+def adopt_pairs(base: FinishedRun, missing: dict[int, object], out: Path) -> dict[int, dict]:
+    """Copy into ``out`` each pair of ``missing`` (index: spec; pairs ``out`` lacks) that the
+    baseline holds verified; ``{index: sample record}`` of the copies."""
     from synth.validate.pairs import verify_pair_folder
 
     adopted = {}
-    for i, spec in enumerate(specs):
-        if verify_pair_folder(spec, out) is None and verify_pair_folder(spec, base.folder):
+    for i, spec in missing.items():
+        if verify_pair_folder(spec, base.folder):
             _copy_tree(base.folder / spec.folder, out / spec.folder)
             record = verify_pair_folder(spec, out)
             if record is not None:

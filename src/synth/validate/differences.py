@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["COLUMNS", "HEADLINE", "read_results", "t_interval", "paired_differences", "difference_table",
-           "regressions", "differences_csv", "describe_row"]
+__all__ = ["COLUMNS", "HEADLINE", "read_results", "t_interval", "paired_differences",
+           "difference_table", "regressions", "differences_csv", "describe_row"]
 
 #: The metric compared (a results.csv column; fractions there, points here).
 HEADLINE = "bad_2"

@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 
 __all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder",
-           "commit_pair_folder", "folder_digest", "verify_pair_folder", "read_pair_folder",
+           "commit_pair_folder", "record_digest", "folder_digest", "verify_pair_folder", "read_pair_folder",
            "max_disparity_for"]
 
 RECORD = "files.json"
@@ -172,6 +172,11 @@ def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
         masks, record, index=spec.seed)
 
 
+def record_digest(folder: Path) -> str:
+    """SHA-256 of a pair folder's ``files.json`` (the folder's digest), not verified."""
+    return hashlib.sha256((folder / RECORD).read_bytes()).hexdigest()
+
+
 def folder_digest(folder: Path) -> str | None:
     """SHA-256 of a pair folder's ``files.json`` when every file of the folder verifies
     against it (the same names, sizes and SHA-256); None otherwise."""
@@ -186,7 +191,7 @@ def folder_digest(folder: Path) -> str | None:
         return None
     if sorted(listed) != [n for n, _ in files] or completion_record(index, files) != stored:
         return None
-    return hashlib.sha256(stored).hexdigest()
+    return record_digest(folder)
 
 
 def verify_pair_folder(spec: Any, out: Path) -> dict | None:

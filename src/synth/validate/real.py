@@ -208,8 +208,8 @@ def resolve_real(specs: Sequence[str]) -> list[RealSpec]:
     folders: dict[str, str] = {}
     for r in found:
         if r.folder in folders:
-            raise ParameterError(f"--real: the scene {r.scene} comes twice (from {folders[r.folder]!r} "
-                                 f"and {r.source!r}); give each scene once")
+            raise ParameterError(f"--real: the scene {r.scene} comes twice (from "
+                                 f"{folders[r.folder]!r} and {r.source!r}); give each scene once")
         folders[r.folder] = r.source
     return [dataclasses.replace(r, fingerprint=_fingerprint(r)) for r in found]
 

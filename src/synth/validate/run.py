@@ -12,7 +12,8 @@ and verifies it):
    this process, one after the other (``py:`` matchers in their own child process, see
    :mod:`matcher.adapters`); each writes ``estimates/<matcher>/<pair folder>.pfm`` and a
    ``.json`` record of its scores per region, seconds and error. A failure (crash, timeout,
-   wrong shape) is recorded, scored as "no estimate", and the run goes on; the references' records of a baseline are copied, not computed;
+   wrong shape) is recorded, scored as "no estimate", and the run goes on; the records of the
+   references a baseline ran are copied from it, not computed;
 3. ``results.csv`` (:data:`COLUMNS`), rebuilt from the records in a fixed order: matchers as
    given, axes in registry order, values, seeds, then the real scenes, regions
    (:data:`matcher.regions.REGIONS`); the same suite gives the same bytes except the timing
@@ -40,8 +41,8 @@ from matcher.io import atomic_write_bytes
 __all__ = ["COLUMNS", "DEFAULT_AGAINST", "ValidateResult", "estimates_folder", "plan",
            "run_validate"]
 
-COLUMNS = ("matcher", "axis", "value", "seed", "scene", "region", "bad_0_5", "bad_1", "bad_2", "bad_4",
-           "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
+COLUMNS = ("matcher", "axis", "value", "seed", "scene", "region", "bad_0_5", "bad_1", "bad_2",
+           "bad_4", "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
            "error", "sample", "estimate")
 #: Timing columns: they differ between runs of the same suite.
 TIMING_COLUMNS = ("seconds", "mpix_disp_per_s")
@@ -220,7 +221,8 @@ def _pairs(specs: list, out: Path, suite: str, backend: str, workers: int, progr
     from synth.validate.real import write_real_folder
 
     samples = {i: verify_pair_folder(s, out) for i, s in enumerate(specs)}
-    adopted = {} if base is None else adopt_pairs(base, [s for s in specs], out)
+    adopted = {} if base is None else adopt_pairs(
+        base, {i: specs[i] for i, rec in samples.items() if rec is None}, out)
     samples.update(adopted)
     pending = [i for i, rec in samples.items() if rec is None]
     for i in [i for i in pending if not isinstance(specs[i], PairSpec)]:
@@ -294,7 +296,7 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
                                          check_same_pairs, load_run, run_record)
     from synth.progress import progress as progress_bar
     from synth.validate.differences import difference_table, differences_csv
-    from synth.validate.pairs import folder_digest
+    from synth.validate.pairs import record_digest
     from synth.validate.real import resolve_real
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
@@ -322,7 +324,7 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     samples, made, copied = _pairs(specs, out, suite, backend, workers, progress, base)
-    digests = {s.folder: folder_digest(out / s.folder) or "" for s in specs}
+    digests = {s.folder: record_digest(out / s.folder) for s in specs}  # verified above
     if base is not None:
         check_same_pairs(base, suite=suite, axes=axis_names, real=[r.scene for r in reals],
                          pairs=digests, folder=out)
