@@ -25,9 +25,9 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["REGIONS", "LR_TOLERANCE", "TEXTURELESS_ENERGY", "TEXTURELESS_WINDOW", "DISCONTINUITY_JUMP",
-           "DISCONTINUITY_RADIUS", "THRESHOLDS", "SCORE_NAMES", "occlusion_mask", "region_masks",
-           "region_scores"]
+__all__ = ["REGIONS", "TEXTURELESS_ENERGY", "TEXTURELESS_WINDOW", "DISCONTINUITY_JUMP",
+           "DISCONTINUITY_RADIUS", "THRESHOLDS", "SCORE_NAMES", "LR_TOLERANCE",
+           "occlusion_from_disparities", "region_masks", "region_scores"]
 
 REGIONS = ("all", "nonocc", "occluded", "textureless", "discontinuity")
 #: Mean squared gradient (grey levels^2 per pixel^2) below which a pixel is textureless.
@@ -40,11 +40,11 @@ DISCONTINUITY_JUMP = 1.0
 DISCONTINUITY_RADIUS = 3
 #: Bad-pixel thresholds of ``bad_0_5``, ``bad_1``, ``bad_2``, ``bad_4``.
 THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
-#: Largest ``|d_L(x) - d_R(x - d_L(x))|`` (pixels) of a pixel visible in both views, when a
-#: scene has no occlusion mask and :func:`occlusion_mask` checks its two ground truths.
-LR_TOLERANCE = 1.0
 SCORE_NAMES = ("bad_0_5", "bad_1", "bad_2", "bad_4", "avgerr", "rms", "a50", "a90", "a99",
                "coverage")
+#: Largest difference (pixels) between a left ground-truth disparity and the right one at its
+#: match for the left pixel to count as visible in both views.
+LR_TOLERANCE = 1.0
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
@@ -77,57 +77,53 @@ def _depth_edges(gt: np.ndarray, has_gt: np.ndarray, jump: float) -> np.ndarray:
     return edges
 
 
-def occlusion_mask(disp_left: np.ndarray, disp_right: np.ndarray | None = None, *,
-                   tolerance: float = LR_TOLERANCE) -> np.ndarray:
-    """An occlusion mask (255 visible in both views, 128 occluded, 0 no ground truth) for a
-    scene that ships ground truth but no mask.
+def occlusion_from_disparities(disp_left: np.ndarray, disp_right: np.ndarray | None = None, *,
+                               tolerance: float = LR_TOLERANCE) -> np.ndarray:
+    """The occlusion mask of a left view from ground truth: a left-right check.
 
-    With the right view's ground truth, a left pixel ``x`` is visible when its match
-    ``x - d_L(x)`` lies in the right image and the right ground truth there (nearest pixel)
-    agrees within ``tolerance``. With the left one alone, it is visible unless a pixel to its
-    right lands at or left of its match, ``min_{x' > x} (x' - d_L(x')) < x - d_L(x) + 0.5``
-    (that nearer surface covers it in the right view), and its match lies in the right image.
+    A left pixel ``(y, x)`` with ground truth ``d`` matches the right pixel
+    ``(y, round(x - d))``; it is visible in both views (255) when that pixel lies in the right
+    image and the right disparity there is within ``tolerance`` of ``d``, else occluded (128:
+    hidden, outside the right view, or no right ground truth there to confirm it); 0 = no left
+    ground truth. Without ``disp_right``, the right view's disparity is the left ground truth
+    warped to it, the nearest surface (the largest disparity) winning at each right pixel.
 
     Parameters
     ----------
     disp_left : (H, W) float array
-        Left ground truth, inf or NaN where unknown.
+        Left ground truth, inf or NaN = unknown.
     disp_right : (H, W) float array, optional
-        Right ground truth (a right pixel ``x_r`` matches the left ``x_r + d_R``).
+        Right ground truth (a right pixel at ``x`` matches the left pixel at ``x + d``).
     tolerance : float
-        Pixels, for the two-view check.
+        See :data:`LR_TOLERANCE`.
 
     Returns
     -------
     (H, W) uint8 array
+        255, 128 or 0 (``mask0nocc.png``'s codes).
 
     Examples
     --------
-    >>> d = np.array([[1.0, 1.0, 3.0, 3.0, 1.0, 1.0]])  # x = 1 lands where x = 3 does
-    >>> occlusion_mask(d).tolist()
-    [[128, 128, 128, 255, 255, 255]]
+    >>> gt = np.array([[1.0, 1.0, 1.0, 1.0, 3.0, 3.0, np.inf]])  # a near object on the right
+    >>> occlusion_from_disparities(gt).tolist()  # x=0 leaves the right view, it hides x=2, 3
+    [[128, 255, 128, 128, 255, 255, 0]]
     """
-    gt = np.asarray(disp_left, dtype=np.float64)
-    known = np.isfinite(gt)
-    h, w = gt.shape
-    xs = np.arange(w, dtype=np.float64)[None, :]
-    target = np.where(known, xs - gt, np.inf)
-    visible = known & (target > -0.5)
-    if disp_right is not None:
-        right = np.asarray(disp_right, dtype=np.float64)
-        col = np.clip(np.rint(np.where(visible, target, 0.0)), 0, w - 1).astype(np.int64)
-        partner = np.take_along_axis(right, col, axis=1)
-        with np.errstate(invalid="ignore"):
-            visible &= np.isfinite(partner) & (np.abs(partner - gt) <= tolerance)
+    left = np.asarray(disp_left, np.float64)
+    h, w = left.shape
+    known = np.isfinite(left)
+    xs = np.broadcast_to(np.arange(w), (h, w))
+    target = np.rint(xs - np.where(known, left, 0.0)).astype(np.int64)
+    inside = known & (target >= 0) & (target < w)
+    rows = np.broadcast_to(np.arange(h)[:, None], (h, w))
+    if disp_right is None:
+        right = np.full((h, w), -np.inf)
+        np.maximum.at(right, (rows[inside], target[inside]), left[inside])
     else:
-        # running minimum of x' - d(x') over x' > x, from the right
-        later = np.minimum.accumulate(target[:, ::-1], axis=1)[:, ::-1]
-        beyond = np.concatenate([later[:, 1:], np.full((h, 1), np.inf)], axis=1)
-        visible &= ~(beyond < target + 0.5)
-    out = np.zeros((h, w), dtype=np.uint8)
-    out[known] = 128
-    out[visible] = 255
-    return out
+        right = np.asarray(disp_right, np.float64)
+    seen = np.full((h, w), np.nan)
+    seen[inside] = right[rows[inside], target[inside]]
+    visible = inside & np.isfinite(seen) & (np.abs(seen - left) <= tolerance)
+    return np.where(visible, 255, np.where(known, 128, 0)).astype(np.uint8)
 
 
 def region_masks(gt: np.ndarray, occlusion: np.ndarray, clean_left: np.ndarray, *,

@@ -9,6 +9,7 @@ from matcher.regions import (
     DISCONTINUITY_RADIUS,
     TEXTURELESS_ENERGY,
     gradient_energy,
+    occlusion_from_disparities,
     region_masks,
     region_scores,
 )
@@ -59,17 +60,23 @@ def test_scores_count_missing_estimates_as_bad_and_errors_over_estimated_pixels(
     assert all(v is None for v in region_scores(est, gt, np.zeros((1, 4), bool)).values())
 
 
-def test_an_error_equal_to_the_threshold_is_good():
-    # errors exactly 0.5, 1, 2, 4: Middlebury's bad-x counts |err| > x, so each is good at its x
-    gt = np.full((1, 4), 10.0)
-    est = np.array([[10.5, 11.0, 12.0, 14.0]])
-    s = region_scores(est, gt, np.ones((1, 4), bool))
-    assert (s["bad_0_5"], s["bad_1"], s["bad_2"], s["bad_4"]) == (0.75, 0.5, 0.25, 0.0)
-
-
-def test_a50_a90_a99_are_quantiles_of_the_absolute_error():
-    # errors 0, 1, ..., 10 (and one pixel without estimate, which they leave out)
-    gt = np.full((1, 12), 20.0)
-    est = np.append(20.0 - np.arange(11.0), np.inf)[None, :]
-    s = region_scores(est, gt, np.ones((1, 12), bool))
-    assert (s["a50"], s["a90"], s["a99"]) == pytest.approx((5.0, 9.0, 9.9))
+def test_occlusion_from_two_ground_truths_is_a_left_right_check():
+    # a fronto-parallel object (d = 6) in front of a background (d = 2), 4 px wide
+    w = 24
+    left = np.full((3, w), 2.0)
+    left[:, 10:14] = 6.0
+    right = np.full((3, w), 2.0)  # the right view sees the object 6 px to the left
+    right[:, 4:8] = 6.0
+    left[2, 20] = np.inf  # unknown
+    occ = occlusion_from_disparities(left, right)
+    row = occ[0].tolist()
+    # x = 0, 1 match outside the right view; the background at x = 6..9 is hidden by the
+    # object there (its match x - 2 = 4..7 sees d = 6)
+    assert row[:2] == [128, 128] and row[6:10] == [128] * 4
+    assert row[2:6] == [255] * 4 and row[10:] == [255] * (w - 10)
+    assert occ[2, 20] == 0
+    # with the right view made from the left ground truth, the same answer
+    assert (occlusion_from_disparities(left) == occ).all()
+    # a right ground truth that disagrees by more than the tolerance: not confirmed visible
+    assert (occlusion_from_disparities(left, right + 1.5)[0] == 128).all()
+    assert occlusion_from_disparities(left, right + 1.0, tolerance=1.0)[0, 12] == 255

@@ -22,3 +22,14 @@ def renderer(require_or_skip) -> Iterator[Renderer]:
         require_or_skip(f"no OpenGL backend: {exc}", env="STEREOFORGE_REQUIRE_GL")
     with r:
         yield r
+
+
+@pytest.fixture(scope="module")
+def tiny_suite(request) -> Iterator[None]:
+    """The validate quick suite shrunk to the test module's ``TINY`` (size and seeds) while the
+    module runs (the CLI's runs are in-process, so they see it too)."""
+    from synth.validate import axes
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(axes.SUITES, "quick", request.module.TINY)
+        yield

@@ -14,19 +14,12 @@ from matcher.regions import REGIONS
 from synth.cli import main
 from synth.dataset.config import config_from_dict
 from synth.validate import axes as axes_mod
-from synth.validate.axes import AXES, Axis, axis_config, base_config, register_axis
+from synth.validate.axes import AXES, SUITES, Axis, axis_config, base_config, register_axis
 from synth.validate.run import COLUMNS, TIMING_COLUMNS, plan, run_validate
 
 HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "user_matchers.py")
 TINY = {"width": 64, "height": 48, "seeds": (0, 1)}
 SOME_AXES = ("noise", "occluders", "textureless_fraction", "slant")
-
-
-@pytest.fixture(scope="module")
-def tiny_suite():
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setitem(axes_mod.SUITES, "quick", TINY)
-        yield
 
 
 def _rows(path):
@@ -40,23 +33,42 @@ def _untimed(rows):
 
 # --------------------------------------------------------------------------- the registry
 def test_every_axis_changes_only_its_parameter_and_parses_as_a_dataset_config():
+    from synth.validate.family import PHOTO_KEYS
+
     for suite in ("quick", "full"):
-        base = base_config(suite)
-        config_from_dict(base)
-        for axis in AXES.values():
-            assert len(axis.values(suite)) >= 3, axis.name
-            for value in axis.values(suite):
-                cfg = axis_config(suite, axis, value)
-                config_from_dict(cfg)  # a valid dataset config
-                changed = {(sec, k) for sec in cfg if isinstance(cfg[sec], dict)
-                           for k in set(cfg[sec]) | set(base.get(sec, {}))
-                           if cfg[sec].get(k) != base.get(sec, {}).get(k)}
-                if axis.key is not None:
-                    assert tuple(axis.key.split(".")) in changed or \
-                        base[axis.key.split(".")[0]].get(axis.key.split(".")[1]) == value
-                if axis.scene is not None and axis.key is None and axis.config is None:
-                    assert changed == set(), axis.name
-                assert len(changed) <= 2, (axis.name, changed)
+        for seed in SUITES[suite]["seeds"]:
+            base = base_config(suite, seed)
+            config_from_dict(base)
+            for axis in AXES.values():
+                assert len(axis.values(suite)) >= 3, axis.name
+                for value in axis.values(suite):
+                    cfg = axis_config(suite, axis, value, seed)
+                    config_from_dict(cfg)  # a valid dataset config
+                    changed = {(sec, k) for sec in cfg if isinstance(cfg[sec], dict)
+                               for k in set(cfg[sec]) | set(base.get(sec, {}))
+                               if cfg[sec].get(k) != base.get(sec, {}).get(k)}
+                    if axis.key is not None:
+                        assert tuple(axis.key.split(".")) in changed or \
+                            base[axis.key.split(".")[0]].get(axis.key.split(".")[1]) == value
+                    if axis.scene is not None and axis.key is None and axis.config is None:
+                        assert changed == set(), axis.name
+                    # photographs are dropped only where a procedural texture is needed
+                    dropped = {k for sec, k in changed if k in PHOTO_KEYS}
+                    assert not dropped or axis.name in ("edge_density", "repetitive_period")
+                    assert len({c for c in changed if c[1] not in PHOTO_KEYS}) <= 2, (
+                        axis.name, changed)
+
+
+def test_each_seed_draws_its_own_base_scene():
+    from synth.validate.family import FAMILY, member_name
+
+    quick = [base_config("quick", s)["scene"] for s in SUITES["quick"]["seeds"]]
+    assert len({q["base"] for q in quick}) == len(quick) == 3  # three different layouts
+    assert any("object_image" in q for q in quick) and any("object_image" not in q
+                                                           for q in quick)
+    full = SUITES["full"]["seeds"]
+    assert {member_name(s) for s in full} == {name for name, _ in FAMILY}
+    assert base_config("full", 0)["scene"] != base_config("full", len(FAMILY))["scene"]
 
 
 def test_an_axis_is_added_in_a_few_lines(monkeypatch):
@@ -70,8 +82,10 @@ def test_an_axis_is_added_in_a_few_lines(monkeypatch):
 
 def test_plan_order_and_folders():
     specs = plan("quick", ["noise", "slant"])
-    assert [(s.axis, s.value, s.seed) for s in specs[:3]] == [
-        ("noise", 0.0, 0), ("noise", 0.0, 1), ("noise", 4.0, 0)]
+    assert [(s.axis, s.value, s.seed) for s in specs[:4]] == [
+        ("noise", 0.0, 0), ("noise", 0.0, 1), ("noise", 0.0, 2), ("noise", 4.0, 0)]
+    assert [s.scene for s in specs[:3]] == ["boxes", "flying", "slanted"]
+    assert specs[0].config != specs[1].config
     assert specs[0].folder == "pairs/noise/0_s0"
     assert len({s.folder for s in plan("full")}) == len(plan("full"))
 

@@ -33,7 +33,7 @@ __all__ = ["Axis", "AXES", "SUITES", "register_axis", "get_axis", "base_config",
 
 #: Suites: rig size, seeds (sample indices of the base config) and which values each axis uses.
 SUITES = {
-    "quick": {"width": 320, "height": 240, "seeds": (0, 1)},
+    "quick": {"width": 320, "height": 240, "seeds": (0, 1, 2)},
     "full": {"width": 640, "height": 480, "seeds": (0, 1, 2, 3, 4)},
 }
 
@@ -89,22 +89,26 @@ def get_axis(name: str) -> Axis:
     return AXES[name]
 
 
-def base_config(suite: str) -> dict:
-    """The base dataset config (dict form) of a suite: the ``boxes`` scene (depth edges and
-    occlusions), noise texture at the presets' 8 px period, contrast 0.8, a 0.2 m baseline and
-    sensor noise of 1 grey level; every other model off."""
+def base_config(suite: str, seed: int = 0) -> dict:
+    """The base dataset config (dict form) of a suite's seed ``seed``: the seed's own base scene
+    (:func:`synth.validate.family.base_scene`: boxes, flying objects, a slanted plane or a
+    Moebius strip, with occluders and procedural or photo textures), texture contrast 0.8, a
+    0.2 m baseline and sensor noise of 1 grey level; every other model off."""
+    from synth.validate.family import base_scene
+
     size = SUITES[suite]
     return {
-        "name": f"validate-{suite}", "seed": 0, "count": len(size["seeds"]), "preview": False,
+        "name": f"validate-{suite}", "seed": 0, "count": max(size["seeds"]) + 1,
+        "preview": False,
         "rig": {"width": size["width"], "height": size["height"], "baseline": 0.2},
-        "scene": {"base": "boxes", "texture": "noise", "contrast": 0.8},
+        "scene": base_scene(seed),
         "photometric": {"noise_sigma": 1.0},
     }
 
 
-def axis_config(suite: str, axis: Axis, value: Any) -> dict:
-    """The base config of ``suite`` with ``axis`` set to ``value`` (a new dict)."""
-    cfg = copy.deepcopy(base_config(suite))
+def axis_config(suite: str, axis: Axis, value: Any, seed: int = 0) -> dict:
+    """The base config of ``suite``'s seed ``seed`` with ``axis`` set to ``value`` (a new dict)."""
+    cfg = copy.deepcopy(base_config(suite, seed))
     if axis.key is not None:
         section, _, key = axis.key.rpartition(".")
         cfg.setdefault(section, {})[key] = value
@@ -114,11 +118,21 @@ def axis_config(suite: str, axis: Axis, value: Any) -> dict:
 
 
 # --------------------------------------------------------------------------- scene changes
+def _procedural(cfg: dict) -> None:
+    """Drop a member's photographs (:data:`synth.validate.family.PHOTO_KEYS`)."""
+    from synth.validate.family import PHOTO_KEYS
+
+    for key in PHOTO_KEYS:
+        cfg["scene"].pop(key, None)
+
+
 def _repetitive(cfg: dict, period_px: float) -> None:
+    _procedural(cfg)
     cfg["scene"].update(texture="stripes", frequency_px=1.0 / float(period_px))
 
 
 def _edge_density(cfg: dict, value: float) -> None:
+    _procedural(cfg)  # the closed-loop search drives procedural textures only
     cfg["scene"].pop("frequency_px", None)  # edge_density chooses the frequency
 
 
@@ -149,15 +163,25 @@ def _slant(scene: Any, rig: Any, degrees: float) -> Any:
     return retexture(out, fx=rig.fx, frequency_px=f_px)
 
 
+def _nearest_depth(scene: Any) -> float:
+    """The smallest depth of any vertex of the scene's objects (their meshes, untextured)."""
+    from scenes import TextureSpec
+    from scenes.primitives import build_mesh
+
+    plain = TextureSpec(kind="constant")
+    return min(float(build_mesh(replace(o, texture=plain)).vertices[:, 2].min())
+               for o in scene.objects)
+
+
 def _textureless_card(scene: Any, rig: Any, fraction: float) -> Any:
     """A constant-grey card covering ``fraction`` of the image, centred, in front of every
-    object (at 0.9 of the nearest object's centre depth); 0 adds nothing."""
+    object (at 0.9 of the nearest vertex's depth); 0 adds nothing."""
     from scenes import ObjectSpec, Pose, TextureSpec
 
     fraction = float(fraction)
     if fraction <= 0:
         return scene
-    z = 0.9 * min(o.pose.translation[2] for o in scene.objects)
+    z = 0.9 * _nearest_depth(scene)
     side = math.sqrt(fraction)
     size = (side * rig.width * z / rig.fx, side * rig.height * z / rig.fy)
     card = ObjectSpec("plane", Pose(translation=(0.0, 0.0, z)), size,
@@ -171,8 +195,31 @@ def _specular(cfg: dict, strength: float) -> None:
         cfg["scene"].update(specular_fraction=1.0, specular=float(strength))
 
 
-def _thin_structures(cfg: dict, count: int) -> None:
-    cfg["scene"].update(occluder_kind="fence", occluders=int(count))
+def _fences(scene: Any, rig: Any, count: int) -> Any:
+    """``count`` wire fences in front of every object (at 0.9 of the nearest vertex's depth),
+    each a square of 15 % of the image width with six bars 1.5 px thick, centred at a pixel of
+    the middle 80 % of the view drawn from the scene's seed, turned about the optical axis and
+    up to 30 degrees about the vertical; 0 adds nothing."""
+    import numpy as np
+
+    from scenes import ObjectSpec, Pose, TextureSpec
+
+    if int(count) <= 0:
+        return scene
+    rng = np.random.default_rng(scene.seed)
+    z = 0.9 * _nearest_depth(scene)
+    side = 0.15 * rig.width * z / rig.fx
+    size = (side, side, side / 6.0, min(max(side / 40.0, 1.5 * z / rig.fx), side / 12.0))
+    fences = []
+    for i in range(int(count)):
+        u, v = rng.uniform(0.1, 0.9) * rig.width, rng.uniform(0.1, 0.9) * rig.height
+        pose = Pose(translation=((u - rig.cx) * z / rig.fx, (v - rig.cy) * z / rig.fy, z),
+                    rotation_deg=(0.0, float(rng.uniform(-30.0, 30.0)),
+                                  float(rng.uniform(0.0, 180.0))))
+        texture = TextureSpec(kind="noise", frequency=0.125 * rig.fx / z, contrast=0.8,
+                              mean=float(rng.uniform(0.3, 0.7)), seed=int(rng.integers(0, 2**62)))
+        fences.append(ObjectSpec("fence", pose, size, texture, name=f"fence{i}"))
+    return replace(scene, objects=(*fences, *scene.objects))
 
 
 def _exposure(cfg: dict, factor: float) -> None:
@@ -230,6 +277,6 @@ for _axis in (
     Axis("roll", "rectification error: right camera rotated about its optical axis, degrees",
          (0.0, 0.5, 2.0), (0.0, 0.25, 0.5, 1.0, 2.0, 3.0), key="rig.right_rz_deg"),
     Axis("thin_structures", "number of wire fences (bars 1-2 px wide) in front of the scene",
-         (0, 1, 3), (0, 1, 2, 3, 5), config=_thin_structures),
+         (0, 1, 3), (0, 1, 2, 3, 5), scene=_fences),
 ):
     register_axis(_axis)

@@ -4,10 +4,12 @@ A pair folder ``pairs/<axis>/<value>_s<seed>/`` is a Middlebury 2014 scene folde
 (:func:`synth.export.write_pair`: ``im0.png``, ``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``,
 ``calib.txt``, ``scene.json``) plus the region masks ``mask_<region>.png`` (uint8, 255 = in the
 region; :func:`matcher.regions.region_masks` of the exact ground truth and the noise-free left
-image), ``sample.json`` (axis, value, seed, ``max_disparity``, drawn parameters, region sizes and
-the fingerprint of everything that determines the pair) and, written last, ``files.json``
-(size and SHA-256 of every file). The folder is built under a temporary name and renamed, so it
-exists only whole; a rerun reuses it when its fingerprint matches and every checksum verifies.
+image), ``sample.json`` (axis, value, seed, the seed's base scene, ``max_disparity``, drawn
+parameters, region sizes and the fingerprint of everything that determines the pair) and,
+written last, ``files.json`` (size and SHA-256 of every file). The folder is built under a
+temporary name and renamed (:func:`commit_pair_folder`, which the real scenes of
+:mod:`synth.validate.real` share), so it exists only whole; a rerun reuses it when its
+fingerprint matches and every checksum verifies (:func:`verify_pair_folder`).
 """
 
 from __future__ import annotations
@@ -20,15 +22,16 @@ import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder", "verify_pair_folder",
-           "read_pair_folder", "max_disparity_for"]
+__all__ = ["PairSpec", "pair_fingerprint", "render_sample", "render_pair_folder",
+           "commit_pair_folder", "record_digest", "folder_digest", "verify_pair_folder", "read_pair_folder",
+           "max_disparity_for"]
 
 RECORD = "files.json"
-_VERSION = 1
+_VERSION = 2  # 2: each seed its own base scene (synth.validate.family)
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,17 @@ class PairSpec:
     @property
     def folder(self) -> str:
         return f"pairs/{self.axis}/{self.value:g}_s{self.seed}"
+
+    @property
+    def scene(self) -> str:
+        """The base scene of the seed (:func:`synth.validate.family.member_name`)."""
+        from synth.validate.family import member_name
+
+        return member_name(self.seed)
+
+    @property
+    def fingerprint(self) -> str:
+        return pair_fingerprint(self)
 
 
 def _canon(obj: Any) -> str:
@@ -100,40 +114,33 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     return pair, images, scene, draw
 
 
-def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
-    """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
-    from matcher.io import atomic_write_bytes, encode_png
-    from matcher.regions import REGIONS, region_masks
-    from synth.dataset.integrity import completion_record
-    from synth.export import write_pair
-    from synth.validate.axes import get_axis
+def commit_pair_folder(out: Path, folder: str, write: Callable[[Path], None],
+                       masks: dict[str, np.ndarray], record: dict, *, index: int = 0) -> dict:
+    """Write pair folder ``out/folder`` atomically and return ``record``.
 
-    axis = get_axis(spec.axis)
-    pair, images, scene, draw = render_sample(spec.config, spec.seed, renderer,
-                                              scene_hook=axis.scene, value=spec.value)
-    width = pair.rig.width
-    masks = region_masks(pair.disp_left, pair.mask_left, pair.left)
-    final = out / spec.folder
+    ``write(tmp)`` writes the layout's files into the temporary folder; then come the region
+    masks ``mask_<region>.png``, ``sample.json`` (``record`` with ``region_pixels``) and, last,
+    ``files.json`` (completion record ``index``). The folder is renamed into place whole.
+    """
+    from matcher.io import atomic_write_bytes, encode_png
+    from matcher.regions import REGIONS
+    from synth.dataset.integrity import completion_record
+
+    final = out / folder
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
+    record = {**record, "region_pixels": {n: int(masks[n].sum()) for n in REGIONS}}
     try:
-        degraded = dataclasses.replace(pair, left=images.left, right=images.right)
-        write_pair(degraded, tmp, scene=scene, seed=draw.seed, preview=False, fsync=False)
+        write(tmp)
         for name in REGIONS:
             atomic_write_bytes(tmp / f"mask_{name}.png",
                                encode_png(masks[name].astype(np.uint8) * np.uint8(255)),
                                fsync=False)
-        record = {"axis": spec.axis, "value": spec.value, "seed": spec.seed,
-                  "sample_seed": draw.seed, "fingerprint": pair_fingerprint(spec),
-                  "max_disparity": max_disparity_for(pair.disp_left, width),
-                  "params": dict(draw.params),
-                  "region_pixels": {n: int(masks[n].sum()) for n in REGIONS}}
         atomic_write_bytes(tmp / "sample.json",
                            (json.dumps(record, indent=1, sort_keys=True) + "\n").encode(),
                            fsync=False)
-        atomic_write_bytes(tmp / RECORD, completion_record(spec.seed, _files_of(tmp)),
-                           fsync=False)
+        atomic_write_bytes(tmp / RECORD, completion_record(index, _files_of(tmp)), fsync=False)
         shutil.rmtree(final, ignore_errors=True)  # a stale or damaged folder of this pair
         os.rename(tmp, final)
     except BaseException:
@@ -142,24 +149,63 @@ def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
     return record
 
 
-def verify_pair_folder(spec: PairSpec, out: Path) -> dict | None:
-    """The sample record of a finished folder whose fingerprint matches and whose every file
-    verifies against ``files.json``; None otherwise (then it is rendered again)."""
+def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
+    """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
+    from matcher.regions import region_masks
+    from synth.export import write_pair
+    from synth.validate.axes import get_axis
+    from synth.validate.family import member_name
+
+    axis = get_axis(spec.axis)
+    pair, images, scene, draw = render_sample(spec.config, spec.seed, renderer,
+                                              scene_hook=axis.scene, value=spec.value)
+    masks = region_masks(pair.disp_left, pair.mask_left, pair.left)
+    degraded = dataclasses.replace(pair, left=images.left, right=images.right)
+    record = {"axis": spec.axis, "value": spec.value, "seed": spec.seed,
+              "scene": member_name(spec.seed), "sample_seed": draw.seed,
+              "fingerprint": pair_fingerprint(spec),
+              "max_disparity": max_disparity_for(pair.disp_left, pair.rig.width),
+              "params": dict(draw.params)}
+    return commit_pair_folder(
+        out, spec.folder, lambda tmp: write_pair(degraded, tmp, scene=scene, seed=draw.seed,
+                                                 preview=False, fsync=False),
+        masks, record, index=spec.seed)
+
+
+def record_digest(folder: Path) -> str:
+    """SHA-256 of a pair folder's ``files.json`` (the folder's digest), not verified."""
+    return hashlib.sha256((folder / RECORD).read_bytes()).hexdigest()
+
+
+def folder_digest(folder: Path) -> str | None:
+    """SHA-256 of a pair folder's ``files.json`` when every file of the folder verifies
+    against it (the same names, sizes and SHA-256); None otherwise."""
     from synth.dataset.integrity import completion_record
 
-    folder = out / spec.folder
     try:
         stored = (folder / RECORD).read_bytes()
-        record = json.loads((folder / "sample.json").read_bytes())
-        listed = json.loads(stored)["files"]
+        doc = json.loads(stored)
+        listed, index = doc["files"], doc["index"]
+        files = _files_of(folder)
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    if record.get("fingerprint") != pair_fingerprint(spec):
+    if sorted(listed) != [n for n, _ in files] or completion_record(index, files) != stored:
         return None
-    files = _files_of(folder)
-    if sorted(listed) != [n for n, _ in files] or completion_record(spec.seed, files) != stored:
+    return record_digest(folder)
+
+
+def verify_pair_folder(spec: Any, out: Path) -> dict | None:
+    """The sample record of a finished folder whose fingerprint matches and whose every file
+    verifies against ``files.json``; None otherwise (then it is made again). ``spec`` is a
+    :class:`PairSpec` or a real scene (:class:`synth.validate.real.RealSpec`)."""
+    folder = out / spec.folder
+    try:
+        record = json.loads((folder / "sample.json").read_bytes())
+    except (OSError, ValueError):
         return None
-    return record
+    if not isinstance(record, dict) or record.get("fingerprint") != spec.fingerprint:
+        return None
+    return record if folder_digest(folder) is not None else None
 
 
 def read_pair_folder(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray,

@@ -3,26 +3,25 @@
 :func:`write_report` reads ``results.csv`` and ``properties.json`` of a validate folder (either may
 be missing; the page says so) and writes, in order:
 
-1. **Summary**: for each reference and each axis x region, the paired difference of bad-2
-   (matcher minus reference, percentage points) over every (value, seed) both scored, as
-   ``mean ± half width`` of the 95 % t-interval (``t(0.975, n - 1) s / sqrt(n)``). *Worse* when
-   the interval lies above 0, *better* when below, otherwise *no clear difference*. A sample the
+1. **Summary**, per comparison (the baseline, if any, then each reference): one heatmap of axis
+   x region (:func:`synth.validate.figures.heatmap`: colour = the paired difference of bad-2 in
+   points, matcher minus the other, a frame where the 95 % t-interval excludes 0, the number in
+   each cell, a colour bar), one sentence with the three axes where the matcher is most clearly
+   worse and one with the three where it is most clearly better, then every axis x region with
+   its interval folded in a ``<details>`` (:mod:`synth.validate.differences`). A sample the
    matcher failed on scores bad-2 = 100 % there (no estimate anywhere), as in ``results.csv``.
-2. **One plot per axis**: bad-2 against the axis value for the matcher and the references, one
-   panel per region, mean over seeds with the 95 % t-interval as error bars (an SVG drawn here:
-   matplotlib took seconds per figure, too slow for a quick run's dozen axes).
-3. **Worst samples** of the matcher (highest bad-2 over ``all``): left view, ground truth,
-   estimate (one colour bar, pixels) and ``|error|`` (its own colour bar), with a legend for
-   pixels without ground truth and without estimate.
-4. **Properties** of the battery (:mod:`synth.validate.properties`) with the counterexamples.
+   Below, each matcher's median seconds per pair and Mpix·disparities per second.
+2. **Real scenes** (``--real``): bad-2 per scene, matcher and region.
+3. **One plot per axis**: bad-2 against the axis value for the matcher and the references, one
+   panel per region, mean over seeds with the 95 % t-interval as error bars.
+4. **Worst samples** of the matcher, one per axis (highest bad-2 over ``all``): left view,
+   ground truth, estimate (one colour bar, pixels) and ``|error|`` (its own colour bar).
+5. **Properties** of the battery (:mod:`synth.validate.properties`) with the counterexamples.
 """
 
 from __future__ import annotations
 
-import base64
-import csv
 import html
-import io
 import json
 import math
 from collections.abc import Sequence
@@ -31,213 +30,15 @@ from pathlib import Path
 import numpy as np
 
 from matcher.io import atomic_write_bytes
+from synth.validate.differences import (HEADLINE, difference_table, paired_differences,
+                                        read_results, t_interval)
+from synth.validate.figures import REGIONS, axis_plot, error_maps, heatmap, png_uri
 
 __all__ = ["HEADLINE", "WORST_SAMPLES", "write_report", "paired_differences", "t_interval"]
 
-#: The metric of the summary and the plots (a results.csv column; fractions, shown in %).
-HEADLINE = "bad_2"
-#: How many of the matcher's worst samples get error maps.
+#: How many of the matcher's worst samples get error maps (each from another axis).
 WORST_SAMPLES = 4
-_REGIONS = ("all", "nonocc", "occluded", "textureless", "discontinuity")
-_FLOATS = ("value", "bad_0_5", "bad_1", "bad_2", "bad_4", "avgerr", "rms", "a50", "a90", "a99",
-           "coverage", "seconds", "mpix_disp_per_s")
-_NO_GT_RGB = (0.78, 0.78, 0.78)
-_NO_ESTIMATE_RGB = (1.0, 0.0, 1.0)
-
-
-# --------------------------------------------------------------------------- numbers
-def t_interval(values: Sequence[float]) -> tuple[float, float, int]:
-    """``(mean, half width of the 95 % t-interval, n)``; the half width is NaN when n < 2.
-
-    Examples
-    --------
-    >>> m, h, n = t_interval([1.0, 2.0, 3.0])
-    >>> round(m, 3), round(h, 3), n
-    (2.0, 2.484, 3)
-    """
-    v = np.asarray(list(values), dtype=np.float64)
-    if v.size == 0:
-        return math.nan, math.nan, 0
-    if v.size < 2:
-        return float(v.mean()), math.nan, 1
-    from scipy.stats import t
-
-    half = float(t.ppf(0.975, v.size - 1) * v.std(ddof=1) / math.sqrt(v.size))
-    return float(v.mean()), half, int(v.size)
-
-
-def paired_differences(rows: Sequence[dict], a: str, b: str, *, axis: str, region: str,
-                       metric: str = HEADLINE) -> list[float]:
-    """``metric(a) - metric(b)`` for every (value, seed) of ``axis`` and ``region`` both scored."""
-    index: dict[tuple, dict[str, float]] = {}
-    for r in rows:
-        if r["axis"] == axis and r["region"] == region and r[metric] is not None:
-            index.setdefault((r["value"], r["seed"]), {})[r["matcher"]] = r[metric]
-    return [m[a] - m[b] for _, m in sorted(index.items()) if a in m and b in m]
-
-
-def _read_results(path: Path) -> list[dict]:
-    with path.open(newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    for r in rows:
-        for k in _FLOATS:
-            r[k] = float(r[k]) if r.get(k) not in (None, "") else None
-    return rows
-
-
-# --------------------------------------------------------------------------- pictures
-def _png_uri(data: bytes) -> str:
-    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
-
-
-def _figure_uri(fig) -> str:
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80, metadata={"Software": None})
-    plt.close(fig)
-    return _png_uri(buf.getvalue())
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")
-
-
-def _svg_uri(svg: str) -> str:
-    return "data:image/svg+xml;base64," + base64.b64encode(svg.encode("utf-8")).decode("ascii")
-
-
-def _ticks(lo: float, hi: float, values: list[float]) -> list[float]:
-    if len(values) <= 7:
-        return values
-    return [lo + (hi - lo) * k / 4 for k in range(5)]
-
-
-def _axis_plot(rows: list[dict], axis: str, matchers: list[str]) -> str:
-    """bad-2 against the axis value, one panel per region: an SVG (drawn here: fast, exact).
-
-    Each point is the mean over seeds, its bar the 95 % t-interval (none for one seed).
-    """
-    regions = [g for g in _REGIONS if any(r["region"] == g and r["axis"] == axis
-                                          and r[HEADLINE] is not None for r in rows)]
-    series: dict[tuple[str, str], list[tuple[float, float, float]]] = {}
-    for region in regions:
-        for m in matchers:
-            by_value: dict[float, list[float]] = {}
-            for r in rows:
-                if r["matcher"] == m and r["axis"] == axis and r["region"] == region \
-                        and r[HEADLINE] is not None:
-                    by_value.setdefault(r["value"], []).append(100 * r[HEADLINE])
-            series[region, m] = [(v, *t_interval(by_value[v])[:2]) for v in sorted(by_value)]
-    values = sorted({p[0] for pts in series.values() for p in pts})
-    tops = [p[1] + (0 if math.isnan(p[2]) else p[2]) for pts in series.values() for p in pts]
-    ymax = min(100.0, max(10.0, 10 * math.ceil(max(tops, default=10) / 10)))
-    lo, hi = (values[0], values[-1]) if values else (0.0, 1.0)
-    if hi == lo:
-        lo, hi = lo - 0.5, hi + 0.5
-    pw, ph, ml, mt, gap = 200, 130, 34, 34, 14
-    width, height = ml + len(regions) * (pw + gap), mt + ph + 34
-
-    def x(v: float, k: int) -> float:
-        return ml + k * (pw + gap) + 6 + (v - lo) / (hi - lo) * (pw - 12)
-
-    def y(v: float) -> float:
-        return mt + ph - v / ymax * ph
-
-    out = [f"<svg xmlns='http://www.w3.org/2000/svg' width='{width}' height='{height}' "
-           "font-family='sans-serif' font-size='9'><rect width='100%' height='100%' fill='white'/>"]
-    lx = ml
-    for j, m in enumerate(matchers):  # legend: one entry after the other
-        label = html.escape(m + (" (validated)" if j == 0 else ""))
-        out.append(f"<rect x='{lx}' y='4' width='10' height='3' fill='{_COLOURS[j % 6]}'/>"
-                   f"<text x='{lx + 14}' y='9'>{label}</text>")
-        lx += 30 + 5.5 * len(m + (" (validated)" if j == 0 else ""))
-    for k, region in enumerate(regions):
-        x0 = ml + k * (pw + gap)
-        out.append(f"<text x='{x0 + pw / 2}' y='{mt - 6}' text-anchor='middle' "
-                   f"font-weight='bold'>{region}</text><rect x='{x0}' y='{mt}' width='{pw}' "
-                   f"height='{ph}' fill='none' stroke='#888'/>")
-        for t in (0, ymax / 2, ymax):
-            out.append(f"<line x1='{x0}' x2='{x0 + pw}' y1='{y(t)}' y2='{y(t)}' stroke='#eee'/>")
-            if k == 0:
-                out.append(f"<text x='{x0 - 3}' y='{y(t) + 3}' text-anchor='end'>{t:g}</text>")
-        for t in _ticks(lo, hi, values):
-            out.append(f"<text x='{x(t, k):.1f}' y='{mt + ph + 11}' text-anchor='middle'>{t:g}</text>")
-        out.append(f"<text x='{x0 + pw / 2}' y='{mt + ph + 24}' text-anchor='middle'>"
-                   f"{html.escape(axis)}</text>")
-        for j, m in enumerate(matchers):
-            pts, colour = series[region, m], _COLOURS[j % 6]
-            if not pts:
-                continue
-            line = " ".join(f"{x(v, k):.1f},{y(mu):.1f}" for v, mu, _ in pts)
-            out.append(f"<polyline points='{line}' fill='none' stroke='{colour}' "
-                       f"stroke-width='{2 if j == 0 else 1.2}'/>")
-            for v, mu, half in pts:
-                cx = x(v, k)
-                if not math.isnan(half):
-                    a, b = y(max(0.0, mu - half)), y(min(ymax, mu + half))
-                    out.append(f"<path d='M{cx:.1f},{a:.1f}V{b:.1f}M{cx - 2:.1f},{a:.1f}h4"
-                               f"M{cx - 2:.1f},{b:.1f}h4' stroke='{colour}'/>")
-                out.append(f"<circle cx='{cx:.1f}' cy='{y(mu):.1f}' r='2.2' fill='{colour}'/>")
-    out.append(f"<text x='9' y='{mt + ph / 2}' transform='rotate(-90 9 {mt + ph / 2})' "
-               "text-anchor='middle'>bad-2 (%)</text></svg>")
-    return _svg_uri("".join(out))
-
-
-def _error_maps(out_dir: Path, row: dict) -> str:
-    from matplotlib.colors import ListedColormap
-    from matplotlib.patches import Patch
-
-    from matcher.io import read_image, read_pfm
-
-    plt = _pyplot()
-    folder = out_dir / row["sample"]
-    left = read_image(folder / "im0.png")
-    gt = read_pfm(folder / "disp0GT.pfm").astype(np.float64)
-    est = (read_pfm(out_dir / row["estimate"]).astype(np.float64) if row["estimate"]
-           else np.full(gt.shape, np.inf))
-    known, estimated = np.isfinite(gt), np.isfinite(est)
-    hi = float(np.nanmax(np.where(known, gt, np.nan))) if known.any() else 1.0
-    err = np.where(known & estimated, np.abs(np.where(estimated, est, 0) - np.where(known, gt, 0)),
-                   np.nan)
-    fig, axes = plt.subplots(1, 4, figsize=(12, 2.9), layout="constrained")
-    turbo = plt.get_cmap("turbo").copy()
-    axes[0].imshow(left, cmap="gray" if left.ndim == 2 else None)
-    axes[0].set_title("left view", fontsize=8)
-
-    def shown(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
-        return np.ma.masked_array(np.where(mask, values, 0.0), ~mask)
-
-    background = np.zeros((*gt.shape, 3))
-    background[~known] = _NO_GT_RGB
-    background[known & ~estimated] = _NO_ESTIMATE_RGB
-    for ax, values, mask, title in ((axes[1], gt, known, "ground truth (px)"),
-                                    (axes[2], est, estimated, "estimate (px)")):
-        ax.imshow(background if ax is axes[2] else np.where(known[..., None], 0.0, _NO_GT_RGB))
-        im = ax.imshow(shown(values, mask), cmap=turbo, vmin=0.0, vmax=hi)
-        ax.set_title(title, fontsize=8)
-    fig.colorbar(im, ax=axes[1:3], shrink=0.85, label="disparity (px)")
-    emax = max(4.0, float(np.nanquantile(err, 0.99))) if np.isfinite(err).any() else 4.0
-    axes[3].imshow(background)
-    im = axes[3].imshow(np.ma.masked_invalid(err), cmap=ListedColormap(
-        plt.get_cmap("viridis")(np.linspace(0, 1, 256))), vmin=0.0, vmax=emax)
-    axes[3].set_title("|error| (px)", fontsize=8)
-    fig.colorbar(im, ax=axes[3], shrink=0.85, label="|estimate - truth| (px)")
-    for ax in axes:
-        ax.set_xticks([])
-        ax.set_yticks([])
-    fig.legend(handles=[Patch(color=_NO_GT_RGB, label="no ground truth"),
-                        Patch(color=_NO_ESTIMATE_RGB, label="no estimate")],
-               loc="lower left", fontsize=7, ncol=2, frameon=False)
-    return _figure_uri(fig)
+_REAL = "real"
 
 
 # --------------------------------------------------------------------------- sections
@@ -247,46 +48,68 @@ def _pct(mean: float, half: float) -> str:
     return f"{mean:+.1f}" if math.isnan(half) else f"{mean:+.1f} ± {half:.1f}"
 
 
-def _verdict(mean: float, half: float) -> str:
-    if math.isnan(half):
-        return "too few pairs"
-    if mean - half > 0:
-        return "worse"
-    if mean + half < 0:
-        return "better"
-    return "no clear difference"
+def _extremes(table: list[dict], verdict: str) -> list[dict]:
+    """Per axis (``real`` pooled) its clearest cell of ``verdict``, the 3 largest ``|mean|``."""
+    best: dict[str, dict] = {}
+    for r in table:
+        if r["verdict"] == verdict and not r["scene"] and (
+                r["axis"] not in best or abs(r["mean"]) > abs(best[r["axis"]]["mean"])):
+            best[r["axis"]] = r
+    return sorted(best.values(), key=lambda r: -abs(r["mean"]))[:3]
 
 
-def _summary(rows: list[dict], matcher: str, references: Sequence[str]) -> list[str]:
-    axes = sorted({r["axis"] for r in rows})
+def _sentence(table: list[dict], verdict: str, other: str) -> str:
+    found = _extremes(table, verdict)
+    who = html.escape(other)
+    if not found:
+        return f"<p class='{verdict}'>Clearly {verdict} than {who} on no axis.</p>"
+    parts = [f"<b>{html.escape('real scenes' if r['axis'] == _REAL else r['axis'])}</b> "
+             f"({_pct(r['mean'], r['half_width'])} points, {r['region']})" for r in found]
+    listed = parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+    return f"<p class='{verdict}'>Most {verdict} than {who}: {listed}.</p>"
+
+
+def _comparison(table: list[dict], other: str, note: str = "") -> list[str]:
+    mine = [r for r in table if r["reference"] == other]
+    lines = [f"<tr class='{r['verdict'].replace(' ', '-')}'><td>{html.escape(r['axis'])}</td>"
+             f"<td>{html.escape(r['scene'])}</td><td>{r['region']}</td><td>{r['n']}</td>"
+             f"<td>{_pct(r['mean'], r['half_width'])}</td><td>{r['verdict']}</td></tr>"
+             for r in mine]
+    return [f"<h3>against {html.escape(other)}</h3>{note}",
+            f"<img class='heatmap' alt='paired differences against {html.escape(other)}' "
+            f"src='{heatmap(table, other)}'>",
+            "<p class='legend'>Colour: bad-2 of the matcher minus that of "
+            f"{html.escape(other)}, in percentage points (red: worse, blue: better). Framed, "
+            "bold: the 95 % interval excludes 0. Grey: no pixel of that region. A single real "
+            "scene is one pair: its difference, without an interval.</p>",
+            _sentence(mine, "worse", other), _sentence(mine, "better", other),
+            f"<details><summary>All {len(mine)} axis x region differences against "
+            f"{html.escape(other)}: mean ± half width, pairs, verdict</summary>"
+            "<table><tr><th>axis</th><th>scene</th><th>region</th><th>n pairs</th>"
+            "<th>bad-2 difference (points)</th><th>verdict</th></tr>" + "".join(lines)
+            + "</table></details>"]
+
+
+def _summary(rows: list[dict], matcher: str, others: Sequence[str],
+             baseline: tuple[str, Path] | None) -> list[str]:
     out = ["<h2>Summary</h2>",
-           f"<p>Paired difference of bad-2 ({html.escape(matcher)} minus reference, percentage "
-           "points) over every (axis value, seed) both matchers were scored on; mean ± half width "
-           "of the 95 % t-interval, t(0.975, n − 1) · s / √n. <b>worse</b>: the interval lies "
-           "above 0; <b>better</b>: below 0. A sample the matcher failed on counts as 100 % bad "
-           "there.</p>"]
-    for ref in references:
-        if not any(r["matcher"] == ref for r in rows):
-            out.append(f"<p class='note'>No rows of the reference {html.escape(ref)} in results.csv.</p>")
+           f"<p>Paired difference of bad-2 ({html.escape(matcher)} minus the other matcher, "
+           "percentage points) over every sample both were scored on (axis value and seed, or "
+           "real scene); mean ± half width of the 95 % t-interval, t(0.975, n − 1) · s / √n. "
+           "<b>worse</b>: the interval lies above 0; <b>better</b>: below 0. A sample the "
+           "matcher failed on counts as 100 % bad there.</p>"]
+    table = difference_table(rows, matcher, [o for o in others
+                                            if any(r["matcher"] == o for r in rows)])
+    for other in others:
+        if not any(r["matcher"] == other for r in rows):
+            out.append(f"<p class='note'>No rows of the reference {html.escape(other)} in "
+                       "results.csv.</p>")
             continue
-        lines, verdicts = [], {"worse": [], "better": []}
-        for axis in axes:
-            for region in _REGIONS:
-                diffs = paired_differences(rows, matcher, ref, axis=axis, region=region)
-                if not diffs:
-                    continue
-                m, h, n = t_interval([100 * d for d in diffs])
-                v = _verdict(m, h)
-                if v in verdicts:
-                    verdicts[v].append(f"{axis} / {region} ({_pct(m, h)})")
-                lines.append(f"<tr class='{v.replace(' ', '-')}'><td>{html.escape(axis)}</td>"
-                             f"<td>{region}</td><td>{n}</td><td>{_pct(m, h)}</td><td>{v}</td></tr>")
-        out.append(f"<h3>against {html.escape(ref)}</h3><ul>"
-                   f"<li>worse on: {html.escape(', '.join(verdicts['worse']) or 'nothing')}</li>"
-                   f"<li>better on: {html.escape(', '.join(verdicts['better']) or 'nothing')}</li></ul>"
-                   "<table><tr><th>axis</th><th>region</th><th>n pairs</th>"
-                   "<th>bad-2 difference (points)</th><th>verdict</th></tr>"
-                   + "".join(lines) + "</table>")
+        note = ""
+        if baseline is not None and other == baseline[0]:
+            note = (f"<p>The baseline: the matcher of the finished run "
+                    f"<code>{html.escape(str(baseline[1]))}</code>, on the same pairs.</p>")
+        out += _comparison(table, other, note)
     return out
 
 
@@ -294,7 +117,7 @@ def _speed(rows: list[dict], matchers: Sequence[str]) -> list[str]:
     """Median seconds per pair and median Mpix x disparities / s of each matcher."""
     lines = []
     for m in matchers:
-        per_pair = {(r["axis"], r["value"], r["seed"]): r for r in rows
+        per_pair = {(r["axis"], r["value"], r["seed"], r.get("scene", "")): r for r in rows
                     if r["matcher"] == m and not r["error"]}
         secs = [r["seconds"] for r in per_pair.values() if r["seconds"] is not None]
         rate = [r["mpix_disp_per_s"] for r in per_pair.values() if r["mpix_disp_per_s"] is not None]
@@ -308,6 +131,55 @@ def _speed(rows: list[dict], matchers: Sequence[str]) -> list[str]:
             "sweep measured it, on this run's machine and workers).</p><table><tr><th>matcher"
             "</th><th>pairs</th><th>median s / pair</th><th>median Mpix·disparities / s</th>"
             "</tr>", *lines, "</table>"]
+
+
+def _real(rows: list[dict], matchers: Sequence[str]) -> list[str]:
+    """bad-2 of each real scene per matcher and region."""
+    real = [r for r in rows if r["axis"] == _REAL]
+    if not real:
+        return []
+    by = {(r["scene"], r["matcher"], r["region"]): r[HEADLINE] for r in real}
+    lines = []
+    for scene in dict.fromkeys(r["scene"] for r in real):
+        for m in matchers:
+            if any((scene, m, g) in by for g in REGIONS):
+                cells = "".join("<td>–</td>" if by.get((scene, m, g)) is None
+                                else f"<td>{100 * by[scene, m, g]:.1f}</td>" for g in REGIONS)
+                lines.append(f"<tr><td>{html.escape(scene)}</td><td>{html.escape(m)}</td>"
+                             f"{cells}</tr>")
+    return ["<h2>Real scenes</h2><p>bad-2 (%) of each real scene, scored like the rendered "
+            "pairs (regions from the scene's own ground truth and mask, or a left-right check "
+            "of its ground truths).</p><table><tr><th>scene</th><th>matcher</th>"
+            + "".join(f"<th>{g}</th>" for g in REGIONS) + "</tr>", *lines, "</table>"]
+
+
+def _worst(rows: list[dict], matcher: str) -> list[dict]:
+    """The matcher's worst sample (bad-2 over ``all``) of each axis, the worst axes first."""
+    worst: dict[str, dict] = {}
+    for r in rows:
+        if r["matcher"] == matcher and r["region"] == "all" and r[HEADLINE] is not None:
+            key = (-r[HEADLINE], str(r["value"]), str(r["seed"]), r.get("scene", ""))
+            if r["axis"] not in worst or key < worst[r["axis"]][0]:
+                worst[r["axis"]] = (key, r)
+    return [r for _, r in sorted(worst.values(), key=lambda kr: (kr[0], kr[1]["axis"]))]
+
+
+def _worst_section(rows: list[dict], matcher: str, source: Path) -> list[str]:
+    worst = _worst(rows, matcher)[:WORST_SAMPLES]
+    body = [f"<h2>Worst samples</h2><p>The {len(worst)} samples with the highest bad-2 over "
+            "all pixels with ground truth, one per axis.</p>"]
+    for r in worst:
+        where = (html.escape(r["scene"]) if r["axis"] == _REAL else
+                 f"{html.escape(r['axis'])} = {r['value']:g}, seed {r['seed']}"
+                 + (f" ({html.escape(r['scene'])})" if r.get("scene") else ""))
+        body.append(f"<h3>{where}: bad-2 {100 * r[HEADLINE]:.1f} %"
+                    + (f" ({html.escape(r['error'])})" if r["error"] else "") + "</h3>")
+        try:
+            body.append(f"<img alt='error maps' src='{error_maps(source, r)}'>")
+        except (OSError, ValueError) as exc:
+            body.append(f"<p class='note'>cannot draw {html.escape(r['sample'])}: "
+                        f"{html.escape(str(exc))}</p>")
+    return body
 
 
 def _properties(out_dir: Path, doc: dict) -> list[str]:
@@ -327,7 +199,7 @@ def _properties(out_dir: Path, doc: dict) -> list[str]:
             path = out_dir / rel
             if path.is_file():
                 pics.append(f"<figure><img class='px' alt='{html.escape(rel)}' "
-                            f"src='{_png_uri(path.read_bytes())}'><figcaption>"
+                            f"src='{png_uri(path.read_bytes())}'><figcaption>"
                             f"{html.escape(Path(rel).stem)}</figcaption></figure>")
             else:
                 pics.append(f"<span class='note'>missing: {html.escape(rel)}</span>")
@@ -341,13 +213,19 @@ def _properties(out_dir: Path, doc: dict) -> list[str]:
     return out + ["</table>"]
 
 
+
+
 _STYLE = """
 body { font-family: sans-serif; margin: 1.5em; max-width: 80em; color: #222; }
 table { border-collapse: collapse; margin: 0.5em 0 1.5em; font-size: 0.85em; }
 td, th { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: left; vertical-align: top; }
+code { overflow-wrap: anywhere; }
 tr.worse td:last-child, tr.fail td:nth-child(3) { color: #b00; font-weight: bold; }
 tr.pass td:nth-child(3) { color: #070; }
 tr.better td:last-child { color: #070; }
+p.worse b { color: #b2182b; } p.better b { color: #2166ac; }
+p.legend { font-size: 0.8em; color: #555; margin-top: 0; }
+details { margin-bottom: 1.5em; } summary { cursor: pointer; color: #333; }
 .note { color: #a60; }
 img { max-width: 100%; }
 img.px { image-rendering: pixelated; width: 96px; }
@@ -356,17 +234,27 @@ figure { display: inline-block; margin: 0 0.3em; text-align: center; font-size: 
 """
 
 
-def write_report(out_dir: Path, *, matcher: str, references: Sequence[str]) -> Path:
+def write_report(out_dir: Path, *, matcher: str, references: Sequence[str],
+                 rows: list[dict] | None = None, source: Path | None = None,
+                 baseline: tuple[str, Path] | None = None) -> Path:
     """Write ``out_dir/report.html`` (atomically) from ``results.csv`` and ``properties.json``.
 
     Parameters
     ----------
     out_dir : Path
-        A validate folder.
+        Where the page goes (a validate folder, or the ``--compare`` output).
     matcher : str
         The validated matcher's spec, as in the ``matcher`` column of ``results.csv``.
     references : sequence of str
         The reference matchers' specs.
+    rows : list of dict, optional
+        The results rows (:func:`synth.validate.differences.read_results`); default: those of
+        ``source/results.csv``. With a baseline they hold its matcher's rows too, under its label.
+    source : Path, optional
+        The validate folder whose pairs, estimates and ``properties.json`` are shown (default
+        ``out_dir``).
+    baseline : (str, Path), optional
+        The label of the baseline's rows and its folder: compared first.
 
     Returns
     -------
@@ -374,54 +262,48 @@ def write_report(out_dir: Path, *, matcher: str, references: Sequence[str]) -> P
         The report.
     """
     out_dir = Path(out_dir)
+    source = out_dir if source is None else Path(source)
     references = list(references)
+    others = ([baseline[0]] if baseline else []) + references
     body = [f"<h1>Validation of <code>{html.escape(matcher)}</code></h1>",
-            f"<p>References: {html.escape(', '.join(references) or 'none')}. Folder: "
-            f"<code>{html.escape(str(out_dir))}</code>.</p>"]
-    results = out_dir / "results.csv"
-    rows = _read_results(results) if results.is_file() else None
+            f"<p>References: {html.escape(', '.join(references) or 'none')}"
+            + (f"; baseline: <code>{html.escape(str(baseline[1]))}</code>" if baseline else "")
+            + f". Folder: <code>{html.escape(str(source))}</code>.</p>"]
+    results = source / "results.csv"
+    if rows is None and results.is_file():
+        rows = read_results(results)
     if rows is None:
-        body.append(f"<p class='note'>No results.csv in {html.escape(str(out_dir))}: no sweep "
+        body.append(f"<p class='note'>No results.csv in {html.escape(str(source))}: no sweep "
                     "results to summarise.</p>")
     elif not any(r["matcher"] == matcher for r in rows):
         body.append(f"<p class='note'>results.csv has no rows of {html.escape(matcher)}.</p>")
     else:
-        failed = sorted({(r["axis"], r["value"], r["seed"], r["error"]) for r in rows
-                         if r["matcher"] == matcher and r["error"]})
+        failed = sorted({(r["axis"], str(r["value"]), str(r["seed"]), r.get("scene", ""),
+                          r["error"]) for r in rows if r["matcher"] == matcher and r["error"]})
         if failed:
+            axis, value, seed, scene, error = failed[0]
+            at = scene if axis == _REAL else f"{axis} = {value}, seed {seed}"
             body.append(f"<p class='note'>The matcher failed on {len(failed)} sample(s), e.g. "
-                        f"{html.escape(failed[0][0])} = {failed[0][1]:g}, seed {failed[0][2]}: "
-                        f"{html.escape(failed[0][3])}</p>")
-        body += _summary(rows, matcher, references)
-        body += _speed(rows, [matcher, *references])
+                        f"{html.escape(at)}: {html.escape(error)}</p>")
+        body += _summary(rows, matcher, others, baseline)
+        body += _speed(rows, [matcher, *others])
+        present = [m for m in [matcher, *others] if any(r["matcher"] == m for r in rows)]
+        body += _real(rows, present)
         body.append("<h2>Axes</h2><p>bad-2 (% of the region's pixels with ground truth whose "
                     "error exceeds 2 px or that have no estimate) against each axis value; mean "
                     "over seeds, bars: 95 % t-interval.</p>")
-        present = [m for m in [matcher, *references] if any(r["matcher"] == m for r in rows)]
-        for axis in sorted({r["axis"] for r in rows}):
+        for axis in dict.fromkeys(r["axis"] for r in rows if r["axis"] != _REAL):
             body.append(f"<h3>{html.escape(axis)}</h3><img alt='bad-2 against {html.escape(axis)}' "
-                        f"src='{_axis_plot(rows, axis, present)}'>")
-        worst = sorted((r for r in rows if r["matcher"] == matcher and r["region"] == "all"
-                        and r[HEADLINE] is not None),
-                       key=lambda r: (-r[HEADLINE], r["axis"], r["value"], r["seed"]))
-        body.append(f"<h2>Worst samples</h2><p>The {min(WORST_SAMPLES, len(worst))} samples with "
-                    "the highest bad-2 over all pixels with ground truth.</p>")
-        for r in worst[:WORST_SAMPLES]:
-            body.append(f"<h3>{html.escape(r['axis'])} = {r['value']:g}, seed {r['seed']}: bad-2 "
-                        f"{100 * r[HEADLINE]:.1f} %" + (f" ({html.escape(r['error'])})"
-                                                          if r["error"] else "") + "</h3>")
-            try:
-                body.append(f"<img alt='error maps' src='{_error_maps(out_dir, r)}'>")
-            except (OSError, ValueError) as exc:
-                body.append(f"<p class='note'>cannot draw {html.escape(r['sample'])}: "
-                            f"{html.escape(str(exc))}</p>")
-    props = out_dir / "properties.json"
+                        f"src='{axis_plot(rows, axis, present)}'>")
+        body += _worst_section(rows, matcher, source)
+    props = source / "properties.json"
     if props.is_file():
-        body += _properties(out_dir, json.loads(props.read_text(encoding="utf-8")))
+        body += _properties(source, json.loads(props.read_text(encoding="utf-8")))
     else:
         body.append(f"<h2>Properties</h2><p class='note'>No properties.json in "
-                    f"{html.escape(str(out_dir))}: the property battery did not run.</p>")
+                    f"{html.escape(str(source))}: the property battery did not run.</p>")
     page = ("<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
+            "<meta name='viewport' content='width=device-width, initial-scale=1'>"
             f"<title>stereoforge validate: {html.escape(matcher)}</title>"
             f"<style>{_STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")
     path = out_dir / "report.html"

@@ -4,16 +4,22 @@ The run, resumable like a dataset (every record is written atomically; a rerun s
 and verifies it):
 
 1. **pairs**: every axis x value x seed of the suite (:mod:`synth.validate.axes`) is rendered
-   once into ``pairs/...`` (:mod:`synth.validate.pairs`), with ``--workers`` GL processes;
+   once into ``pairs/...`` (:mod:`synth.validate.pairs`), with ``--workers`` GL processes, and
+   every ``--real`` scene is written into ``pairs/real/...`` (:mod:`synth.validate.real`);
+   with ``--baseline``, pairs the folder lacks are copied from the baseline, and the pairs must
+   be the baseline's (:mod:`synth.validate.baseline`);
 2. **estimates**: the matcher and each reference (``--against``) run on exactly those pairs, in
    this process, one after the other (``py:`` matchers in their own child process, see
-   :mod:`matcher.adapters`); each writes ``estimates/<matcher>/<axis>/<value>_s<seed>.pfm`` and
-   a ``.json`` record of its scores per region, seconds and error. A failure (crash, timeout,
-   wrong shape) is recorded, scored as "no estimate", and the run goes on;
+   :mod:`matcher.adapters`); each writes ``estimates/<matcher>/<pair folder>.pfm`` and a
+   ``.json`` record of its scores per region, seconds and error. A failure (crash, timeout,
+   wrong shape) is recorded, scored as "no estimate", and the run goes on; the records of the
+   references a baseline ran are copied from it, not computed;
 3. ``results.csv`` (:data:`COLUMNS`), rebuilt from the records in a fixed order: matchers as
-   given, axes in registry order, values, seeds, regions (:data:`matcher.regions.REGIONS`);
-   the same suite gives the same bytes except the timing columns ``seconds`` and
-   ``mpix_disp_per_s``;
+   given, axes in registry order, values, seeds, then the real scenes, regions
+   (:data:`matcher.regions.REGIONS`); the same suite gives the same bytes except the timing
+   columns ``seconds`` and ``mpix_disp_per_s``;
+   then ``run.json`` (the run is finished) and ``differences.csv`` (paired differences against
+   each reference and the baseline, :mod:`synth.validate.differences`);
 4. the property battery (``properties.json``) and ``report.html``
    (:func:`_battery_and_report`).
 """
@@ -32,10 +38,11 @@ from typing import Any, Sequence
 
 from matcher.io import atomic_write_bytes
 
-__all__ = ["COLUMNS", "DEFAULT_AGAINST", "ValidateResult", "plan", "run_validate"]
+__all__ = ["COLUMNS", "DEFAULT_AGAINST", "ValidateResult", "estimates_folder", "plan",
+           "run_validate"]
 
-COLUMNS = ("matcher", "axis", "value", "seed", "region", "bad_0_5", "bad_1", "bad_2", "bad_4",
-           "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
+COLUMNS = ("matcher", "axis", "value", "seed", "scene", "region", "bad_0_5", "bad_1", "bad_2",
+           "bad_4", "avgerr", "rms", "a50", "a90", "a99", "coverage", "seconds", "mpix_disp_per_s",
            "error", "sample", "estimate")
 #: Timing columns: they differ between runs of the same suite.
 TIMING_COLUMNS = ("seconds", "mpix_disp_per_s")
@@ -58,6 +65,12 @@ class ValidateResult:
     seconds : dict
         Wall time of each stage: ``pairs``, ``matching``, ``battery`` (battery and report) and
         ``total``.
+    differences : tuple of dict
+        The rows of ``differences.csv`` (:func:`synth.validate.differences.difference_table`).
+    baseline : str or None
+        The baseline's label in ``differences`` (``baseline <matcher>``), if one was given.
+    pairs_copied : int
+        Pairs copied from the baseline instead of rendered (counted in ``pairs_reused``).
     """
 
     out: Path
@@ -69,6 +82,17 @@ class ValidateResult:
     failed_properties: tuple[str, ...]
     battery_ran: bool
     seconds: dict
+    differences: tuple[dict, ...] = ()
+    baseline: str | None = None
+    pairs_copied: int = 0
+
+    def regressions(self, points: float = 1.0) -> list[dict]:
+        """The axis x region rows worse than the baseline by more than ``points`` bad-2 points
+        with the 95 % interval above 0 (:func:`synth.validate.differences.regressions`)."""
+        from synth.validate.differences import regressions
+
+        return [] if self.baseline is None else regressions(self.differences, self.baseline,
+                                                            points)
 
 
 def plan(suite: str, axes: Sequence[str] | None = None) -> list:
@@ -83,8 +107,8 @@ def plan(suite: str, axes: Sequence[str] | None = None) -> list:
     for name in names:
         axis = get_axis(name)
         for value in axis.values(suite):
-            cfg = axis_config(suite, axis, value)
-            out.extend(PairSpec(name, value, seed, cfg) for seed in SUITES[suite]["seeds"])
+            out.extend(PairSpec(name, value, seed, axis_config(suite, axis, value, seed))
+                       for seed in SUITES[suite]["seeds"])
     return out
 
 
@@ -108,6 +132,11 @@ def _slug(spec: str) -> str:
     return f"{readable}-{hashlib.sha256(spec.encode()).hexdigest()[:8]}"
 
 
+def estimates_folder(spec: str) -> str:
+    """Where a matcher's estimates go in a validate folder: ``estimates/<slug>``."""
+    return f"estimates/{_slug(spec)}"
+
+
 def _json(obj: Any) -> bytes:
     return (json.dumps(obj, indent=1, sort_keys=True, allow_nan=False) + "\n").encode()
 
@@ -122,7 +151,7 @@ def _estimate_record(matcher: Any, spec: Any, sample: dict, out: Path) -> tuple[
     from matcher.regions import REGIONS, region_scores
     from synth.validate.pairs import read_pair_folder
 
-    base = f"estimates/{_slug(matcher.spec)}/{spec.axis}/{spec.value:g}_s{spec.seed}"
+    base = f"{estimates_folder(matcher.spec)}/{spec.folder.removeprefix('pairs/')}"
     rec_path, pfm_path = out / f"{base}.json", out / f"{base}.pfm"
     fingerprint = hashlib.sha256(f"{matcher.spec}\n{sample['fingerprint']}".encode()).hexdigest()
     try:
@@ -174,13 +203,46 @@ def _rows(matcher: Any, spec: Any, record: dict) -> list[dict]:
     if record["error"] is None and seconds > 0:
         rate = record["pixels"] * record["max_disparity"] / seconds / 1e6
     base = {"matcher": matcher.spec, "axis": spec.axis, "value": spec.value, "seed": spec.seed,
-            "seconds": seconds, "mpix_disp_per_s": rate, "error": record["error"] or "",
-            "sample": spec.folder, "estimate": record["estimate"]}
+            "scene": spec.scene, "seconds": seconds, "mpix_disp_per_s": rate,
+            "error": record["error"] or "", "sample": spec.folder, "estimate": record["estimate"]}
     return [{**base, "region": n, **record["scores"][n]} for n in REGIONS]
 
 
-def _battery_and_report(matcher: Any, out: Path, suite: str,
-                        references: Sequence[str]) -> tuple[str, ...]:
+def _pairs(specs: list, out: Path, suite: str, backend: str, workers: int, progress: bool,
+           base: Any) -> tuple[dict[int, dict], int, int]:
+    """Every pair folder of ``specs`` ready under ``out``: verified and reused, copied from the
+    baseline ``base`` (if any), made (real scenes, in this process) or rendered (``workers``
+    GL processes). ``({index: sample record}, rendered or made, copied)``."""
+    from synth.dataset.engine import run_tasks
+    from synth.progress import progress as progress_bar
+    from synth.validate.axes import SUITES
+    from synth.validate.baseline import adopt_pairs
+    from synth.validate.pairs import PairSpec, verify_pair_folder
+    from synth.validate.real import write_real_folder
+
+    samples = {i: verify_pair_folder(s, out) for i, s in enumerate(specs)}
+    adopted = {} if base is None else adopt_pairs(
+        base, {i: specs[i] for i, rec in samples.items() if rec is None}, out)
+    samples.update(adopted)
+    pending = [i for i, rec in samples.items() if rec is None]
+    for i in [i for i in pending if not isinstance(specs[i], PairSpec)]:
+        samples[i] = write_real_folder(specs[i], out)
+    synthetic = [i for i in pending if isinstance(specs[i], PairSpec)]
+    size = SUITES[suite]
+    task = _PairTask(specs, out, backend, size["width"], size["height"])
+    bar = progress_bar(total=len(specs), initial=len(specs) - len(synthetic), enabled=progress,
+                       desc=f"validate {suite}: pairs", unit="pair")
+    try:
+        for index, record in run_tasks(task, synthetic, workers=workers):
+            samples[index] = record
+            bar.update(1)
+    finally:
+        bar.close()
+    return samples, len(pending), len(adopted)
+
+
+def _battery_and_report(matcher: Any, out: Path, suite: str, references: Sequence[str],
+                        rows: list[dict], baseline: tuple[str, Path] | None) -> tuple[str, ...]:
     """Run the property battery and write report.html; the names of failed required properties.
 
     The only place that calls :mod:`synth.validate.properties` and :mod:`synth.validate.report`.
@@ -189,14 +251,16 @@ def _battery_and_report(matcher: Any, out: Path, suite: str,
     from synth.validate.report import write_report
 
     entries = run_battery(matcher, out, suite=suite, name=matcher.name)
-    write_report(out, matcher=matcher.spec, references=list(references))
+    write_report(out, matcher=matcher.spec, references=list(references), rows=rows,
+                 baseline=baseline)
     return tuple(e["name"] for e in entries if e.get("required") and not e.get("passed"))
 
 
 def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
                  against: Sequence[str] = DEFAULT_AGAINST, workers: int = 1,
                  timeout: float = 60.0, backend: str = "auto", progress: bool = True,
-                 axes: Sequence[str] | None = None, battery: bool = True) -> ValidateResult:
+                 axes: Sequence[str] | None = None, battery: bool = True,
+                 real: Sequence[str] = (), baseline: str | Path | None = None) -> ValidateResult:
     """Validate ``matcher`` (a MATCHER string) on every axis of ``suite`` against references.
 
     Parameters
@@ -216,16 +280,24 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
         Only these axes (default: every registered axis).
     battery : bool
         Run the property battery and write the report (off: pairs, estimates and results only).
+    real : sequence of str
+        ``--real`` SPECs (:mod:`synth.validate.real`): real scenes scored beside the axes.
+    baseline : str or Path, optional
+        A finished validate folder (:mod:`synth.validate.baseline`) whose matcher this one is
+        compared with, on identical pairs; its pairs and its references' estimates are reused.
 
     Returns
     -------
     ValidateResult
     """
     from matcher.adapters import resolve_matcher
-    from synth.dataset.engine import run_tasks
+    from synth.validate.axes import AXES
+    from synth.validate.baseline import (RUN_RECORD, adopt_estimates, baseline_label,
+                                         check_same_pairs, load_run, run_record)
     from synth.progress import progress as progress_bar
-    from synth.validate.axes import SUITES
-    from synth.validate.pairs import verify_pair_folder
+    from synth.validate.differences import difference_table, differences_csv
+    from synth.validate.pairs import record_digest
+    from synth.validate.real import resolve_real
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers: expected an int >= 1, got {workers!r}")
@@ -237,25 +309,26 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
         seconds[stage] = now - clock[-1]
         clock.append(now)
 
-    specs = plan(suite, axes)
+    axis_names = list(AXES) if axes is None else list(axes)
+    reals = resolve_real(real)
+    specs = [*plan(suite, axis_names), *reals]
+    base = None if baseline is None else load_run(baseline)
+    if base is not None:
+        check_same_pairs(base, suite=suite, axes=axis_names, real=[r.scene for r in reals],
+                         pairs={}, folder=Path(out))
     main = resolve_matcher(matcher, timeout=timeout)
     refs = [resolve_matcher(a, timeout=timeout) for a in against if a.strip() != main.spec]
     matchers = [main, *[r for i, r in enumerate(refs) if r.spec not in
                         {x.spec for x in refs[:i]}]]
+    folders = {m.spec: estimates_folder(m.spec) for m in matchers}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    samples = {i: verify_pair_folder(s, out) for i, s in enumerate(specs)}
-    pending = [i for i, rec in samples.items() if rec is None]
-    size = SUITES[suite]
-    task = _PairTask(specs, out, backend, size["width"], size["height"])
-    bar = progress_bar(total=len(specs), initial=len(specs) - len(pending), enabled=progress,
-                       desc=f"validate {suite}: pairs", unit="pair")
-    try:
-        for index, record in run_tasks(task, pending, workers=workers):
-            samples[index] = record
-            bar.update(1)
-    finally:
-        bar.close()
+    samples, made, copied = _pairs(specs, out, suite, backend, workers, progress, base)
+    digests = {s.folder: record_digest(out / s.folder) for s in specs}  # verified above
+    if base is not None:
+        check_same_pairs(base, suite=suite, axes=axis_names, real=[r.scene for r in reals],
+                         pairs=digests, folder=out)
+        adopt_estimates(base, [m.spec for m in matchers[1:]], specs, out, folders)
     lap("pairs")
     rows, computed, reused = [], 0, 0
     bar = progress_bar(total=len(specs) * len(matchers), enabled=progress,
@@ -273,14 +346,29 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     finally:
         bar.close()
     results = atomic_write_bytes(out / "results.csv", _results_csv(rows), fsync=False)
+    atomic_write_bytes(out / RUN_RECORD, run_record(
+        matcher=main.spec, references=[m.spec for m in matchers[1:]], suite=suite,
+        axes=axis_names, real=[r.scene for r in reals], pairs=digests, estimates=folders),
+        fsync=False)
+    others = [m.spec for m in matchers[1:]]
+    compared = None
+    if base is not None:
+        label = baseline_label(base)
+        rows = rows + base.rows_of(base.matcher, label=label)
+        others, compared = [label, *others], (label, base.folder)
+    table = difference_table(rows, main.spec, others)
+    atomic_write_bytes(out / "differences.csv", differences_csv(table), fsync=False)
     lap("matching")
     failed: tuple[str, ...] = ()
     if battery:
-        failed = _battery_and_report(main, out, suite, [r.spec for r in matchers[1:]])
+        failed = _battery_and_report(main, out, suite, [m.spec for m in matchers[1:]], rows,
+                                     compared)
         main.close()
     lap("battery")
     seconds["total"] = clock[-1] - clock[0]
-    return ValidateResult(out=out, results=results, pairs_rendered=len(pending),
-                          pairs_reused=len(specs) - len(pending), estimates_computed=computed,
+    return ValidateResult(out=out, results=results, pairs_rendered=made,
+                          pairs_reused=len(specs) - made, estimates_computed=computed,
                           estimates_reused=reused, failed_properties=failed,
-                          battery_ran=battery, seconds=seconds)
+                          battery_ran=battery, seconds=seconds, differences=tuple(table),
+                          baseline=None if base is None else baseline_label(base),
+                          pairs_copied=copied)

@@ -7,10 +7,11 @@ A source string is one of
   ``middlebury`` or ``kitti``), read through :class:`synth.StereoDataset`; its ``train`` split
   is learned from, its ``val`` split gives the validation loss;
 - ``middlebury:DIR[:DIVISOR]``, ``kitti:DIR``, ``skimage:motorcycle`` — real scenes, read through
-  :func:`matcher.io.real.load_real`; a plain path to such a folder is recognised too. All of
+  :func:`synth.validate.real.resolve_real` (as ``validate --real`` reads them); a plain path
+  to such a folder is recognised too. All of
   their scenes are learned from (no validation split). Pixels visible in both views come from the
-  scene's own mask, else from a left-right check of its two ground truths, else from the left
-  one's ordering (:func:`matcher.regions.occlusion_mask`).
+  scene's own mask, else from a left-right check of its ground truths (the left one warped to
+  the right view when there is no right one: :func:`matcher.regions.occlusion_from_disparities`).
 
 Every source has a name and a hash: a dataset's config name and ``config_hash`` (from
 ``dataset.json``), a real source's spec and the SHA-256 of the arrays read. They go into the
@@ -25,9 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.io.real import REAL_KINDS, load_real, real_scene_dirs
-from matcher.regions import occlusion_mask
-from stereoforge.errors import DatasetError
+from stereoforge.errors import DatasetError, ParameterError
 
 __all__ = ["TrainPair", "TrainSource", "open_source", "open_sources"]
 
@@ -123,21 +122,25 @@ def _dataset(spec: str, root: Path, val_fraction: float) -> TrainSource:
 
 
 def _real(spec: str) -> TrainSource:
-    samples = load_real(spec)
+    from synth.validate.real import resolve_real
+
+    try:
+        scenes = resolve_real([spec])
+    except ParameterError as exc:
+        raise DatasetError(f"training data {exc}") from None
     pairs, digest = [], hashlib.sha256()
-    for s in samples:
-        if not np.isfinite(s.disp_left).any():
-            raise DatasetError(f"{spec}: scene {s.name} has no ground truth; train needs "
+    for scene in scenes:
+        left, right, gt, mask, _how = scene.load()
+        if not np.isfinite(gt).any():
+            raise DatasetError(f"{spec}: scene {scene.scene} has no ground truth; train needs "
                                "ground-truth disparities")
-        mask = s.mask_left if s.mask_left is not None else occlusion_mask(s.disp_left,
-                                                                             s.disp_right)
-        for a in (s.left, s.right, s.disp_left, mask):
-            digest.update(np.ascontiguousarray(a).tobytes())
-        pairs.append(_pair(s.left, s.right, s.disp_left, mask))
+        digest.update(scene.fingerprint.encode())
+        pairs.append(_pair(left, right, gt, mask))
     return TrainSource(spec, spec, digest.hexdigest(), spec.partition(":")[0], len(pairs), 0,
                        {"train": pairs, "val": []})
 
 
+_REAL_KINDS = ("middlebury", "kitti", "skimage")
 _IMAGES_ONLY = ("im0.png", "view1.png", "image_2", "training/image_2")
 
 
@@ -152,8 +155,7 @@ def open_source(spec: str, *, val_fraction: float = 0.1) -> TrainSource:
     FileNotFoundError
         No such path.
     """
-    kind = spec.partition(":")[0]
-    if kind in REAL_KINDS and ":" in spec:
+    if spec.partition(":")[0] in _REAL_KINDS and ":" in spec:
         return _real(spec)
     root = Path(spec).expanduser()
     if not root.exists():
@@ -162,9 +164,12 @@ def open_source(spec: str, *, val_fraction: float = 0.1) -> TrainSource:
                                 "middlebury:DIR, kitti:DIR, skimage:motorcycle")
     if (root / "dataset.json").is_file():
         return _dataset(spec, root, val_fraction)
-    if (root / "training" / "disp_occ_0").is_dir() or (root / "disp_occ_0").is_dir():
+    if (root / "training" / "disp_occ_0").is_dir():
+        return _real(f"kitti:{root / 'training'}")
+    if (root / "disp_occ_0").is_dir():
         return _real(f"kitti:{spec}")
-    if root.is_dir() and real_scene_dirs(root):
+    if root.is_dir() and any((d / g).is_file() for d in (root, *root.iterdir()) if d.is_dir()
+                             for g in ("disp1.png", "disp0GT.pfm", "disp0.pfm")):
         return _real(f"middlebury:{spec}")
     if any((root / n).exists() or any(root.glob(f"*/{n}")) for n in _IMAGES_ONLY):
         raise DatasetError(f"training data {spec}: {root} holds stereo images but no ground-truth "

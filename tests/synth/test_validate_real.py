@@ -1,0 +1,135 @@
+"""Real scenes in a validate run (--real): rows beside the axes, scored as `stereoforge eval`
+scores the same estimates against the scenes' own ground-truth files."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import json
+import re
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from matcher.io import load_middlebury_2005, read_image, write_kitti, write_middlebury, write_pfm
+from matcher.regions import REGIONS, occlusion_from_disparities
+from synth.cli import main
+
+TINY = {"width": 64, "height": 48, "seeds": (0,)}
+
+
+def _rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def real_run(tiny_suite, middlebury_dir, tmp_path_factory, renderer):
+    out = tmp_path_factory.mktemp("real") / "v"
+    result = CliRunner().invoke(main, [
+        "validate", "ct:9", "--out", str(out), "--axes", "noise", "--against", "sgbm:5",
+        "--real", f"middlebury:{middlebury_dir / 'third'}", "--real", "skimage:motorcycle"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+SCENES = [*(f"middlebury:third/{s}" for s in
+            ("Baby1", "Cloth2", "Flowerpots", "Midd1", "Moebius", "Reindeer")),
+          "skimage:motorcycle"]
+
+
+@pytest.mark.gl
+@pytest.mark.realdata
+def test_real_scenes_are_rows_of_results_csv_beside_the_axes(real_run):
+    rows = _rows(real_run / "results.csv")
+    real = [r for r in rows if r["axis"] == "real"]
+    assert [r["scene"] for r in real if r["matcher"] == "ct:9" and r["region"] == "all"] == SCENES
+    assert len(real) == len(SCENES) * 2 * len(REGIONS)
+    assert all(r["value"] == "" and r["seed"] == "" and r["error"] == "" for r in real)
+    assert {r["scene"] for r in rows if r["axis"] == "noise"} == {"boxes"}
+    moebius = real_run / "pairs/real/middlebury_third_Moebius"
+    record = json.loads((moebius / "sample.json").read_text())
+    assert record["divisor"] == 3.0 and record["max_disparity"] == 80
+    assert record["occlusion"] == "left-right check of the left and right ground truths"
+    assert record["region_pixels"]["nonocc"] < record["region_pixels"]["all"]
+    page = (real_run / "report.html").read_text()
+    assert "<h2>Real scenes</h2>" in page and "<td>skimage:motorcycle</td>" in page
+    heatmap = base64.b64decode(re.search(r"<img class='heatmap'[^>]*src='data:image/svg\+xml;"
+                                         r"base64,([^']+)'", page).group(1)).decode()
+    for label in ("noise", "real (7 scenes)", *SCENES):  # the scenes beside the axes
+        assert f">{label}</text>" in heatmap, label
+
+
+@pytest.mark.gl
+@pytest.mark.realdata
+def test_real_bad_2_equals_stereoforge_eval_on_the_same_estimates(real_run, middlebury_dir,
+                                                                  tmp_path):
+    import skimage.data
+
+    motorcycle_gt = tmp_path / "motorcycle.pfm"
+    disp = skimage.data.stereo_motorcycle()[2]
+    write_pfm(motorcycle_gt, np.where(np.isfinite(disp), disp, np.inf).astype(np.float32))
+    checked = 0
+    for r in _rows(real_run / "results.csv"):
+        if r["axis"] != "real" or r["region"] not in ("all", "nonocc"):
+            continue
+        if r["scene"] == "skimage:motorcycle":
+            gt = [str(motorcycle_gt)]
+        else:
+            scene = middlebury_dir / "third" / r["scene"].rsplit("/", 1)[1]
+            gt = [str(scene / "disp1.png"), "--gt-divisor", "3"]
+        result = CliRunner().invoke(main, [
+            "eval", str(real_run / r["estimate"]), *gt, "--json",
+            "--mask", str(real_run / r["sample"] / "mask0nocc.png")])
+        assert result.exit_code == 0, result.output
+        report = json.loads(result.output)
+        assert 100 * float(r["bad_2"]) == pytest.approx(report[r["region"]]["bad_2"], abs=1e-9)
+        checked += 1
+    assert checked == len(SCENES) * 2 * 2
+
+
+@pytest.mark.gl
+@pytest.mark.realdata
+def test_kitti_and_middeval3_layouts_use_their_own_masks(tiny_suite, middlebury_dir, tmp_path,
+                                                         renderer):
+    s = load_middlebury_2005(middlebury_dir / "third" / "Baby1")
+    mask = occlusion_from_disparities(s.disp_left, s.disp_right)
+    mask[:, :5] = np.where(mask[:, :5] == 255, 128, mask[:, :5])  # not what a check would say
+    gt = np.where(mask > 0, s.disp_left, np.inf).astype(np.float32)
+    write_kitti(tmp_path / "kitti", 3, left=s.left, right=s.right, disp_left=gt, mask_left=mask)
+    write_middlebury(tmp_path / "MiddEval3" / "Baby1", left=s.left, right=s.right, disp_left=gt,
+                     disp_right=None, mask_left=mask,
+                     calib={"cam0": np.eye(3), "cam1": np.eye(3), "doffs": 0, "baseline": 1,
+                            "ndisp": 64})
+    out = tmp_path / "v"
+    result = CliRunner().invoke(main, [
+        "validate", "ct:9", "--out", str(out), "--axes", "noise", "--against", "",
+        "--real", f"kitti:{tmp_path / 'kitti'}", "--real",
+        f"middlebury:{tmp_path / 'MiddEval3'}", "--skip-battery"])
+    assert result.exit_code == 0, result.output
+    scenes = [r["scene"] for r in _rows(out / "results.csv")
+              if r["axis"] == "real" and r["region"] == "all"]
+    assert scenes == ["kitti:kitti/000003", "middlebury:MiddEval3/Baby1"]
+    for folder in ("kitti_kitti_000003", "middlebury_MiddEval3_Baby1"):
+        pair = out / "pairs" / "real" / folder
+        assert json.loads((pair / "sample.json").read_text())["occlusion"] == \
+            "the scene's own occlusion mask"
+        assert (read_image(pair / "mask0nocc.png") == mask).all()
+        assert ((read_image(pair / "mask_nonocc.png") > 0) == (mask == 255)).all()
+
+
+def test_bad_real_specs_are_one_error_line(tmp_path):
+    for spec, message in (
+            ("flickr:cats", "expected middlebury:DIR[:DIVISOR], kitti:DIR[:FIRST-LAST] or "
+                            "skimage:motorcycle"),
+            (f"middlebury:{tmp_path / 'absent'}", "is not a folder"),
+            (f"middlebury:{tmp_path}", "no Middlebury scene in"),
+            (f"kitti:{tmp_path}", "is not a KITTI 2015 training folder (no image_2/)"),
+            ("skimage:astronaut", "expected middlebury:DIR")):
+        result = CliRunner().invoke(main, ["validate", "ct:9", "--out", str(tmp_path / "v"),
+                                           "--real", spec, "--skip-battery"])
+        assert result.exit_code == 2, result.output
+        errors = [x for x in result.output.splitlines() if x.startswith("Error:")]
+        assert len(errors) == 1 and message in errors[0] and spec in errors[0], result.output
+        assert not (tmp_path / "v").exists()
