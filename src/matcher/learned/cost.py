@@ -28,7 +28,7 @@ __all__ = ["COST_SCALE", "STRIP_PIXELS", "features", "learned_cost"]
 #: up to 511 x 511 pixels fits the uint32 of :func:`matcher.cost.aggregate_cost`.
 COST_SCALE = 8192.0
 #: Largest strip of a view pushed through the network at once (pixels, halo excluded).
-STRIP_PIXELS = 1 << 18
+STRIP_PIXELS = 1 << 16
 
 
 def features(model: LearnedModel, image: np.ndarray, *, device: str | torch.device = "cpu"

@@ -87,8 +87,11 @@ def model_bytes(net: PatchNet, header: dict) -> bytes:
     """The bytes of a model file for ``net`` (weights moved to the CPU) and ``header``."""
     import io
 
+    import json
+
     full = {"architecture": net.arch.to_dict(), "input": INPUT,
             "inference": dict(INFERENCE_DEFAULTS), "stereoforge_version": _version(), **header}
+    full = json.loads(json.dumps(full, default=str))  # plain JSON data: weights_only reads it
     state = {k: v.detach().to("cpu").contiguous() for k, v in net.state_dict().items()}
     buf = io.BytesIO()
     torch.save({"format": FORMAT, "format_version": FORMAT_VERSION, "header": full,

@@ -181,3 +181,55 @@ def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, back
                           workers=workers, repeats=repeats, backend=backend,
                           battery=not skip_battery, progress=True)
     click.echo(write_table(rows, Path(out), "validate"))
+
+
+@bench.command("transfer")
+@out_dir_option(default="out/bench")
+@click.option("--configs", default="flying,middlebury-like", show_default=True,
+              help="Comma-separated dataset configs (example names or TOML paths) to train on.")
+@click.option("--count", default=200, show_default=True, type=click.IntRange(min=1),
+              help="Pairs rendered per config.")
+@click.option("--minutes", default=10.0, show_default=True, type=click.FloatRange(min=0.05),
+              help="Training budget of every model (wall time, data loading included).")
+@click.option("--seeds", "seeds_text", default="0", show_default=True,
+              help="Comma-separated seeds: one model per config and seed.")
+@click.option("--data", default=None,
+              help="Middlebury folder with third/ (default $STEREOFORGE_MIDDLEBURY or "
+                   "../shared/data/middlebury); without it only Motorcycle is scored.")
+@click.option("--workers", default=2, show_default=True, type=click.IntRange(min=1),
+              help="Rendering workers.")
+@click.option("--device", default="auto", show_default=True, help="auto, cpu or cuda[:N].")
+@click.option("--no-ceiling", is_flag=True,
+              help="Skip the in-domain ceiling (leave-one-scene-out on the real scenes).")
+def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, device,
+                       no_ceiling) -> None:
+    """Train the reference network on each config, score it on real scenes beside CT and SGBM."""
+    import os
+
+    from synth.jobs.bench_render import write_table
+    from synth.jobs.bench_transfer import bench_transfer, draw_transfer
+    from synth.jobs.machine import describe_machine
+
+    seeds = [s.strip() for s in seeds_text.split(",") if s.strip()]
+    if not seeds or not all(s.isdigit() for s in seeds):
+        fail(ValueError(f"--seeds must be integers >= 0 separated by commas, got {seeds_text!r}"))
+    folder = Path(data or os.environ.get("STEREOFORGE_MIDDLEBURY") or "../shared/data/middlebury")
+    if data is not None and not (folder / "third").is_dir():
+        fail(FileNotFoundError(f"--data: no third/ folder under {folder}; pass the Middlebury "
+                               "folder holding third/<Scene>/"))
+    result = bench_transfer(configs=[c.strip() for c in configs.split(",") if c.strip()],
+                            count=count, minutes=minutes, seeds=[int(s) for s in seeds],
+                            data=folder if (folder / "third").is_dir() else None, out=Path(out),
+                            workers=workers, device=device, ceiling=not no_ceiling,
+                            log=lambda m: click.echo(m, err=True))
+    click.echo(write_table(result.summary, Path(out), "transfer"))
+    write_table(result.rows, Path(out), "transfer-scenes")
+    write_table(result.models, Path(out), "transfer-models")
+    from matcher.learned import resolve_device
+
+    machine = describe_machine(backend=None)
+    device = f"{device} ({resolve_device(device)})" if device == "auto" else device
+    title = (f"bad-3 per real scene; models trained {minutes:g} min each on {count} pairs "
+             f"({len(seeds)} seed(s), range bars), device {device};\n{machine.cpu}, "
+             f"{machine.cores} cores, numba {machine.numba_target}")
+    click.echo(f"figure: {draw_transfer(result, Path(out) / 'transfer.png', title=title)}")

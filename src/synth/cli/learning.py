@@ -34,8 +34,12 @@ __all__ = ["train_cmd"]
               help="Feature maps per layer.")
 @click.option("--layers", default=4, show_default=True, type=click.IntRange(min=1),
               help="3x3 convolutions (patch side 2*layers+1).")
+@click.option("--crops", default=16, show_default=True, type=click.IntRange(min=1),
+              help="Crops per step, each from another pair (the batch).")
+@click.option("--crop", default=32, show_default=True, type=click.IntRange(min=4),
+              help="Side of a crop's block of left pixels (its patches).")
 def train_cmd(datasets, out, minutes, steps, seed, device, resume, overwrite, workers, threads,
-              checkpoint_minutes, channels, layers) -> None:
+              checkpoint_minutes, channels, layers, crops, crop) -> None:
     """Train the reference learned matcher (MC-CNN-fast style) on DATASET(s).
 
     DATASET: a stereoforge dataset folder, or real scenes with ground truth:
@@ -47,7 +51,7 @@ def train_cmd(datasets, out, minutes, steps, seed, device, resume, overwrite, wo
     if minutes is None and steps is None:
         minutes = 10.0
     cfg = TrainConfig(sources=tuple(datasets), out=out, minutes=minutes, steps=steps, seed=seed,
-                      channels=channels, layers=layers)
+                      channels=channels, layers=layers, crops=crops, crop=crop)
     try:
         result = train(cfg, device=device, resume=resume, overwrite=overwrite, workers=workers,
                        threads=threads, checkpoint_minutes=checkpoint_minutes, log=note)

@@ -25,7 +25,11 @@ __all__ = ["eval_cmd", "eval_dataset_cmd", "match_cmd"]
 @click.option("--lr-check", is_flag=True, help="Left-right consistency check (failures become inf).")
 @click.option("--subpixel", is_flag=True, help="Parabola subpixel refinement.")
 @click.option("--aggregate", default=None, type=int, help="Box aggregation window (default: none).")
-def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, aggregate) -> None:
+@click.option("--matcher", "matcher_spec", default=None, metavar="MATCHER",
+              help="Any MATCHER string instead of --method/--window/...: ct:9, sgbm:5, "
+                   "learned:MODEL.pt, py:FILE.py:FUNCTION, cmd:TEMPLATE.")
+def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, aggregate,
+              matcher_spec) -> None:
     """Match LEFT and RIGHT images and write the left disparity map to --out."""
     from matcher import match
     from matcher.io import read_image, write_pfm
@@ -34,6 +38,17 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
 
     if out.suffix.lower() != ".pfm":
         fail(ValueError(f"--out must be a .pfm file (got {out.name})"))
+    if matcher_spec is not None:
+        ctx = click.get_current_context()
+        given = [f"--{n.replace('_', '-')}" for n in ("method", "window", "lr_check", "subpixel",
+                                                      "aggregate")
+                 if ctx.get_parameter_source(n) is click.core.ParameterSource.COMMANDLINE]
+        if given:
+            fail(ValueError(f"--matcher names the whole matcher; drop {', '.join(given)} (a "
+                            "learned model's steps are in its header; override them in Python "
+                            "with matcher.learned.match_learned)"))
+        _match_any(left, right, matcher_spec, max_disp, out)
+        return
     left_img, right_img = read_image(left), read_image(right)
     with compile_notice(MATCHER_KERNELS, note):
         timed = first_and_warm(lambda: match(
@@ -46,6 +61,24 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
                f"invalid {invalid:.2f} %, wrote {out}")
     if result.ops is not None:
         click.echo(f"operations: {result.ops}")
+
+
+def _match_any(left: Path, right: Path, spec: str, max_disp: int, out: Path) -> None:
+    """``match --matcher``: one MATCHER string on a pair, timed warm like the built-ins."""
+    from matcher.adapters import resolve_matcher
+    from matcher.io import read_image, write_pfm
+    from synth.jobs.timing import first_and_warm
+
+    m = resolve_matcher(spec)  # a bad string or model file fails before the images are read
+    left_img, right_img = read_image(left), read_image(right)
+    try:
+        timed = first_and_warm(lambda: m(left_img, right_img, max_disparity=max_disp))
+    finally:
+        m.close()
+    disparity = timed.result
+    write_pfm(out, disparity)
+    invalid = 100.0 * float((~(disparity < float("inf"))).mean())
+    click.echo(f"{m.name} D={max_disp}: {timed.describe()}, invalid {invalid:.2f} %, wrote {out}")
 
 
 @click.command("eval")

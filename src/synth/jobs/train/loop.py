@@ -55,7 +55,7 @@ ROW_STEPS = 100
 #: Validation batches the validation loss averages over.
 VAL_BATCHES = 8
 #: Box sides (1 = none) tried for the model's default aggregation.
-AGGREGATES = (1, 3, 5, 7, 9, 11, 13)
+AGGREGATES = (1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21)
 #: Validation pairs the aggregation is chosen on.
 SELECT_PAIRS = 4
 CSV_COLUMNS = ("step_from", "step_to", "seconds", "train_loss", "val_loss", "patches",
@@ -284,7 +284,7 @@ def _choose_aggregate(model: LearnedModel, sources: list[TrainSource], device: t
 def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
           overwrite: bool = False, workers: int = 2, threads: int | None = None,
           checkpoint_minutes: float = 2.0, log: Callable[[str], None] | None = None,
-          show_progress: bool = True, stop_after_checkpoints: int | None = None) -> TrainResult:
+          show_progress: bool = True, row_steps: int = ROW_STEPS) -> TrainResult:
     """Train the reference network (see the module docstring).
 
     Parameters
@@ -301,8 +301,8 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
         torch's threads for the network (default: torch's own choice).
     checkpoint_minutes : float
         Wall time between checkpoints.
-    stop_after_checkpoints : int, optional
-        For tests: act as if interrupted once this many periodic checkpoints were written.
+    row_steps : int
+        Steps per CSV row and validation loss (:data:`ROW_STEPS`).
 
     Raises
     ------
@@ -328,7 +328,9 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
                            "train a new model with another --out")
     if threads is not None:
         torch.set_num_threads(int(threads))
-    if dev.type == "cpu":
+    if dev.type == "cpu" and not torch.are_deterministic_algorithms_enabled():
+        # its first call imports torch._inductor, which crashes a process where Mesa's llvmpipe
+        # is loaded (it renders): such a process calls it itself before its first render
         torch.use_deterministic_algorithms(True)
     torch.manual_seed(cfg.seed)
     arch = Architecture(channels=cfg.channels, layers=cfg.layers)
@@ -375,7 +377,7 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
         bar = progress(total=cfg.steps if cfg.steps is not None else int(budget), initial=0,
                        desc="train", unit="step" if cfg.steps is not None else "s",
                        enabled=show_progress)
-        last_ckpt, n_ckpt = time.monotonic(), 0
+        last_ckpt = time.monotonic()
         run_start, run_seconds0 = time.monotonic(), state.seconds
         loader = iter(_loader(batches, state.step, total, workers)) if state.step < total else iter(())
         while state.step < total:
@@ -403,9 +405,9 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
             dt = time.monotonic() - t0
             state.row_seconds += dt
             state.seconds = run_seconds0 + (time.monotonic() - run_start)
-            if state.step % ROW_STEPS == 0 or state.step == total:
+            if state.step % row_steps == 0 or state.step == total:
                 v = _val_loss(net, val_batches, dev)
-                row = {"step_from": state.step - (state.step - 1) % ROW_STEPS,
+                row = {"step_from": state.step - (state.step - 1) % row_steps,
                        "step_to": state.step, "seconds": round(state.seconds, 2),
                        "train_loss": round(state.row_loss / max(state.row_count, 1), 6),
                        "val_loss": "" if v is None else round(v, 6),
@@ -426,9 +428,7 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
                     bar.update(int(state.seconds) - bar.n) if int(state.seconds) > bar.n else None
             if time.monotonic() - last_ckpt >= 60.0 * checkpoint_minutes:
                 _save_checkpoint(ckpt_path, cfg, sources, net, opt, state, finished=False)
-                last_ckpt, n_ckpt = time.monotonic(), n_ckpt + 1
-                if stop_after_checkpoints is not None and n_ckpt >= stop_after_checkpoints:
-                    stop["signal"] = "test stop"
+                last_ckpt = time.monotonic()
         if stop["signal"]:
             _save_checkpoint(ckpt_path, cfg, sources, net, opt, state, finished=False)
             raise TrainInterrupted(f"interrupted ({stop['signal']}) at step {state.step}: "
@@ -443,7 +443,7 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
 
     if state.row_count:  # a last partial row
         v = _val_loss(net, val_batches, dev)
-        state.rows.append({"step_from": state.step - (state.step - 1) % ROW_STEPS,
+        state.rows.append({"step_from": state.step - (state.step - 1) % row_steps,
                            "step_to": state.step, "seconds": round(state.seconds, 2),
                            "train_loss": round(state.row_loss / state.row_count, 6),
                            "val_loss": "" if v is None else round(v, 6), "patches": state.patches,
@@ -462,7 +462,7 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
                      "patches": state.patches, "seconds": round(state.seconds, 1),
                      "seed": cfg.seed, "minutes": cfg.minutes, "max_steps": cfg.steps,
                      "crops": cfg.crops, "crop": cfg.crop, "lr": cfg.lr, "device": str(dev),
-                     "torch": torch.__version__, "threads": torch.get_num_threads(),
+                     "torch": str(torch.__version__), "threads": torch.get_num_threads(),
                      "train_loss": last.get("train_loss"), "val_loss": last.get("val_loss")},
     }
     atomic_write_bytes(csv_path, _csv_bytes(state.rows), fsync=False)

@@ -1,0 +1,239 @@
+"""stereoforge train: learning lowers the loss and beats the untrained network, resume after a
+kill or Ctrl-C equals the uninterrupted run, the model file, bad input, and torch's DataLoader
+with worker processes over StereoDataset of every layout."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+if importlib.util.find_spec("torch") is None:  # the extra 'learn'
+    if os.environ.get("STEREOFORGE_REQUIRE_TORCH", "") not in ("", "0"):
+        raise RuntimeError("torch is not installed and STEREOFORGE_REQUIRE_TORCH=1 forbids skipping")
+    pytest.skip("torch is not installed (pip install 'stereoforge[learn]')", allow_module_level=True)
+
+import torch  # noqa: E402
+from torch.utils.data import DataLoader  # noqa: E402
+
+from matcher import evaluate, resolve_matcher  # noqa: E402
+from matcher.learned import Architecture, PatchNet, load_model, match_learned  # noqa: E402
+from matcher.learned.model import LearnedModel  # noqa: E402
+from synth import StereoDataset  # noqa: E402
+from synth.dataset.config import loads_config  # noqa: E402
+from synth.dataset.run import run_dataset  # noqa: E402
+from synth.jobs.train import PatchBatches, open_sources  # noqa: E402
+
+CONFIG = """\
+name = "train-test"
+seed = 5
+count = 14
+
+[rig]
+width = 128
+height = 96
+
+[scene]
+base = "flying"
+occluders = {uniform = [1, 3]}
+
+[photometric]
+noise_sigma = {uniform = [0.5, 1.5]}
+"""
+CLI = [sys.executable, "-c", "from synth.cli import main; main()"]
+pytestmark = pytest.mark.gl
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory, renderer) -> Path:
+    out = tmp_path_factory.mktemp("train") / "flying"
+    run_dataset(loads_config(CONFIG), out=out, progress=False)
+    return out
+
+
+def _bad3(model: LearnedModel, sample: dict) -> float:
+    est = match_learned(sample["left"], sample["right"], model, max_disparity=48, aggregate=5)
+    return float(evaluate(est.disparity, sample["disp"], delta=3.0, region="all").pobmp)
+
+
+def test_training_lowers_the_loss_and_beats_the_untrained_network(data, tmp_path):
+    # every training in this module runs as the CLI does, in a process of its own: the first
+    # torch.use_deterministic_algorithms imports torch._inductor, which crashes a process that
+    # has Mesa's llvmpipe loaded (this one renders)
+    out = tmp_path / "m.pt"
+    r = _cli(["train", str(data), "--out", str(out), "--steps", "200", "--crops", "4",
+              "--workers", "0", "--device", "cpu"], check=True)
+    assert "trained 200 steps" in r.stdout
+    import csv
+
+    rows = list(csv.DictReader((tmp_path / "m.csv").read_text().splitlines()))
+    assert [int(r["step_to"]) for r in rows] == [100, 200]
+    assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
+    assert all(float(r["val_loss"]) > 0 for r in rows)  # measured on the validation split
+    torch.manual_seed(0)  # the untrained network: the same initialisation, no step
+    untrained = LearnedModel(net=PatchNet(Architecture()).eval())
+    trained = load_model(out)
+    val = StereoDataset(data, split="val")
+    scores = [(_bad3(untrained, val[i]), _bad3(trained, val[i])) for i in range(len(val))]
+    assert all(after < before for before, after in scores), scores
+    header = trained.header
+    assert header["training"]["steps"] == 200 and header["training"]["seed"] == 0
+    assert header["training"]["sources"][0]["name"] == "train-test"
+    import json
+
+    assert header["training"]["sources"][0]["hash"] == json.loads(
+        (data / "dataset.json").read_text())["config_hash"]
+    assert header["inference"]["aggregate"] in (1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21)
+
+
+def test_batches_are_a_function_of_seed_and_step_only(data):
+    sources = open_sources([str(data)])
+    a = PatchBatches(sources, seed=3, radius=4, crops=6)
+    b = PatchBatches(sources, seed=3, radius=4, crops=6)
+    b[9]  # another order of requests and a warm cache change nothing
+    for k in (9, 0, 4):
+        for ca, cb in zip(a[k], b[k], strict=True):
+            for f in ("left", "right", "ys", "xs", "x_pos", "x_neg"):
+                np.testing.assert_array_equal(getattr(ca, f), getattr(cb, f))
+    other = PatchBatches(sources, seed=4, radius=4, crops=6)
+    assert not np.array_equal(a[0][0].left, other[0][0].left)
+
+
+def test_every_training_pair_is_used_equally(data):
+    sources = open_sources([str(data)])
+    batches = PatchBatches(sources, seed=1, radius=4, crops=4)
+    n = len(batches.pairs)
+    counts = np.bincount([batches._pair_number(j) for j in range(5 * n)], minlength=n)
+    assert (counts == 5).all()
+
+
+def _weights(path: Path) -> dict:
+    return load_model(path).net.state_dict()
+
+
+def _cli(args, **kw):
+    return subprocess.run(CLI + args, capture_output=True, text=True, **kw)
+
+
+def _children(pid: int) -> list[int]:
+    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True)
+    return [int(p) for p in out.stdout.split()]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT])
+def test_resume_after_a_kill_or_ctrl_c_equals_the_uninterrupted_run(data, tmp_path, how):
+    args = ["train", str(data), "--steps", "60", "--seed", "2", "--device", "cpu", "--workers",
+            "2", "--crops", "8", "--checkpoint-minutes", "0.003"]
+    whole = _cli(args + ["--out", str(tmp_path / "whole.pt")], check=True)
+    assert "trained 60 steps" in whole.stdout
+    out = tmp_path / "cut.pt"
+    ckpt = Path(f"{out}.ckpt")
+    proc = subprocess.Popen(CLI + args + ["--out", str(out)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not ckpt.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    workers = _children(proc.pid)
+    assert proc.poll() is None, "the run ended before it could be interrupted"
+    proc.send_signal(how)
+    _, err = proc.communicate(timeout=60)
+    if how == signal.SIGINT:
+        assert proc.returncode == 130
+        assert "interrupted (SIGINT) at step" in err and "--resume" in err
+        assert "Traceback" not in err
+    else:
+        assert proc.returncode == -signal.SIGKILL
+    assert ckpt.is_file() and not out.exists()
+    time.sleep(1.0)
+    alive = [p for p in workers if Path(f"/proc/{p}").exists()
+             and "zombie" not in Path(f"/proc/{p}/status").read_text().lower()]
+    assert alive == [], "worker processes outlived the trainer"
+    assert not any(p.name.startswith(".") or p.suffix == ".tmp" for p in tmp_path.iterdir())
+    resumed = _cli(args + ["--out", str(out), "--resume"], check=True)
+    assert "resuming" in resumed.stderr and "trained 60 steps" in resumed.stdout
+    a, b = _weights(tmp_path / "whole.pt"), _weights(out)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    steps = [line.split(",")[1] for line in out.with_suffix(".csv").read_text().splitlines()[1:]]
+    assert steps == ["60"]
+    again = _cli(args + ["--out", str(out), "--resume"])
+    assert again.returncode == 2 and "is finished" in again.stderr
+
+
+def test_bad_input_is_one_line(data, tmp_path):
+    (tmp_path / "nogt").mkdir()
+    from matcher.io import encode_png
+
+    for name in ("im0.png", "im1.png"):
+        (tmp_path / "nogt" / name).write_bytes(encode_png(np.zeros((8, 8, 3), np.uint8)))
+    cases = [
+        ([str(tmp_path / "nogt"), "--out", str(tmp_path / "a.pt"), "--steps", "1"],
+         "no ground-truth disparity"),
+        ([str(tmp_path / "missing"), "--out", str(tmp_path / "a.pt"), "--steps", "1"],
+         "no such folder"),
+        ([str(data), "--out", str(tmp_path / "a.pt"), "--steps", "1", "--resume"],
+         "no checkpoint"),
+        ([str(data), "--out", str(tmp_path / "a.txt"), "--steps", "1"], "a .pt model file"),
+        (["middlebury:" + str(tmp_path / "nogt"), "--out", str(tmp_path / "a.pt")],
+         "disp0"),
+    ]
+    for args, words in cases:
+        r = _cli(["train", *args])
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2, r.stderr
+        assert len(lines) == 1 and lines[0].startswith("Error: ") and words in lines[0], r.stderr
+    (tmp_path / "bad.pt").write_bytes(b"\x00" * 64)
+    r = _cli(["match", str(data / "MiddEval3/trainingF/000000/im0.png"),
+              str(data / "MiddEval3/trainingF/000000/im1.png"), "--out", str(tmp_path / "d.pfm"),
+              "--matcher", f"learned:{tmp_path / 'bad.pt'}"])
+    assert r.returncode == 2 and r.stderr.count("\n") == 1
+    assert r.stderr.startswith("Error: matcher 'learned:") and "not a readable model file" in r.stderr
+
+
+def test_an_existing_model_is_not_overwritten_without_asking(data, tmp_path):
+    out = tmp_path / "m.pt"
+    out.write_bytes(b"keep")
+    r = _cli(["train", str(data), "--out", str(out), "--steps", "1"])
+    assert r.returncode == 2 and "exists" in r.stderr and "--overwrite" in r.stderr
+    assert out.read_bytes() == b"keep"
+
+
+def test_a_trained_model_is_a_matcher_everywhere(data, tmp_path):
+    out = tmp_path / "m.pt"
+    _cli(["train", str(data), "--out", str(out), "--steps", "5", "--crops", "4", "--workers",
+          "0"], check=True)
+    m = resolve_matcher(f"learned:{out}")
+    s = StereoDataset(data)[0]
+    disp = m(s["left"], s["right"], max_disparity=32)
+    assert disp.shape == s["disp"].shape and disp.dtype == np.float32
+    r = _cli(["match", str(data / "MiddEval3/trainingF/000000/im0.png"),
+              str(data / "MiddEval3/trainingF/000000/im1.png"), "--out", str(tmp_path / "d.pfm"),
+              "--matcher", f"learned:{out}", "--max-disp", "32"], check=True)
+    assert r.stdout.startswith("learned:m D=32:")
+
+
+@pytest.mark.parametrize("fmt", ["middlebury", "kitti", "middlebury2014"])
+def test_a_torch_dataloader_with_two_workers_reads_stereodataset(renderer, tmp_path, fmt):
+    out = tmp_path / fmt
+    run_dataset(loads_config(CONFIG), out=out, fmt=fmt, count=4, progress=False)
+    data = StereoDataset(out)
+    loader = DataLoader(data, batch_size=2, num_workers=2, multiprocessing_context="spawn")
+    batches = list(loader)
+    assert len(batches) == 2
+    first = batches[0]
+    assert first["left"].shape == (2, 96, 128, 3) and first["left"].dtype == torch.uint8
+    assert first["disp"].dtype == torch.float32 and first["valid"].dtype == torch.bool
+    for b, batch in enumerate(batches):
+        for j in range(2):
+            want = data[2 * b + j]
+            np.testing.assert_array_equal(batch["left"][j].numpy(), want["left"])
+            np.testing.assert_array_equal(batch["disp"][j].numpy(), want["disp"])
+            assert int(batch["index"][j]) == int(want["index"])
