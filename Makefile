@@ -42,7 +42,7 @@ $(VENV)/.installed: pyproject.toml
 	  { echo "stereoforge needs Python >= 3.11 (found $$($(PYTHON) --version))"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(PIP) install --quiet --upgrade pip
-	$(PIP) install --quiet -e '.[test]'
+	$(PIP) install --quiet -e '.[test,learn]'
 	touch $@
 
 bench: setup

@@ -6,6 +6,7 @@ They are real doctests (they run in CI, where a backend is installed and
 
 from __future__ import annotations
 
+import importlib.util
 import os
 
 import pytest
@@ -14,6 +15,14 @@ from _pytest.doctest import DoctestItem
 # Every Ray a test starts or joins stays on the loopback, whichever test imports Ray first: Ray
 # keeps a node IP of 127.0.0.1 only with this set as it is imported (synth.dataset.engine).
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+
+# The learning modules import torch (the extra 'learn', in the 'test' extra): without it their
+# examples are not collected (their tests skip with the reason, or fail where
+# STEREOFORGE_REQUIRE_TORCH=1, as in CI).
+if importlib.util.find_spec("torch") is None:
+    collect_ignore_glob = ["src/matcher/learned/*.py", "src/synth/jobs/train/*.py",
+                           "src/synth/jobs/bench_transfer.py"]
+
 
 def require_or_skip(reason: str, *, env: str) -> None:
     """Skip with ``reason``, or fail when the environment variable ``env`` demands the resource.

@@ -237,3 +237,11 @@ def test_a_torch_dataloader_with_two_workers_reads_stereodataset(renderer, tmp_p
             np.testing.assert_array_equal(batch["left"][j].numpy(), want["left"])
             np.testing.assert_array_equal(batch["disp"][j].numpy(), want["disp"])
             assert int(batch["index"][j]) == int(want["index"])
+
+
+def test_the_torch_example_of_docs_learning_trains(data):
+    example = Path(__file__).resolve().parents[2] / "docs" / "examples" / "train_torch.py"
+    r = subprocess.run([sys.executable, str(example), str(data), "--steps", "20", "--workers",
+                        "2"], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1].startswith("step 20: loss ")
