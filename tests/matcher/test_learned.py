@@ -106,6 +106,19 @@ def test_match_learned_equals_the_census_steps_on_its_cost():
     np.testing.assert_array_equal(got, want)
 
 
+@pytest.mark.parametrize("aggregate, lr_check", [(1, False), (5, True), (9, False)])
+def test_strips_of_the_volume_give_the_whole_volumes_disparity(monkeypatch, aggregate, lr_check):
+    m = _model()
+    left, right = _noise_pair(4, shape=(37, 50))
+    cost = learned_cost(m, left, right, max_disparity=10)
+    vol = cost if aggregate == 1 else aggregate_cost(cost, size=aggregate)
+    want = winner_takes_all(vol, lr_check=lr_check, subpixel=True)
+    monkeypatch.setattr("matcher.learned.match.VOLUME_BYTES", 10 * 50 * 6 * (3 + aggregate))
+    got = match_learned(left, right, m, max_disparity=10, aggregate=aggregate,
+                        lr_check=lr_check, subpixel=True).disparity
+    np.testing.assert_array_equal(got, want)
+
+
 def test_rgb_and_grey_views_give_the_same_answer():
     rng = np.random.default_rng(4)
     grey = rng.integers(0, 256, (30, 60), dtype=np.uint8)

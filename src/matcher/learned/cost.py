@@ -8,7 +8,8 @@ census matcher differ only in the cost.
 
 Memory stays bounded: the features of a view are computed in strips of rows (each with the
 network's halo), and the cost is written row by row straight into the uint16 volume by a numba
-kernel, never as a float volume.
+kernel, never as a float volume; :func:`matcher.learned.match_learned` builds, aggregates and
+selects the volume in strips of rows too (:func:`feature_cost` on a slice of the features).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from matcher._validation import check_image, check_max_disparity, check_same_sha
 from matcher.learned.model import LearnedModel
 from matcher.learned.network import standardise
 
-__all__ = ["COST_SCALE", "STRIP_PIXELS", "features", "learned_cost"]
+__all__ = ["COST_SCALE", "STRIP_PIXELS", "feature_cost", "features", "learned_cost"]
 
 #: Cost units per unit of ``1 - cos``: costs span 0 .. 2 * COST_SCALE (16384), so a box sum over
 #: up to 511 x 511 pixels fits the uint32 of :func:`matcher.cost.aggregate_cost`.
@@ -89,12 +90,17 @@ def learned_cost(model: LearnedModel, left: np.ndarray, right: np.ndarray, *,
     """
     left, right = check_image(left, "left"), check_image(right, "right")
     check_same_shape(left, right)
-    h, w = left.shape
-    n_disp = check_max_disparity(max_disparity, w)
-    fl = features(model, left, device=device)
-    fr = features(model, right, device=device)
+    n_disp = check_max_disparity(max_disparity, left.shape[1])
+    return feature_cost(features(model, left, device=device),
+                        features(model, right, device=device), n_disp)
+
+
+def feature_cost(fl: np.ndarray, fr: np.ndarray, n_disp: int) -> np.ndarray:
+    """The (h, D, W) uint16 cost volume of rows of features (:func:`features`, sliced by rows:
+    a strip of the volume needs only its own rows)."""
+    h, _, w = fl.shape
     out = np.empty((h, n_disp, w), dtype=np.uint16)
-    n_threads = numba.get_num_threads()
-    similarity_cost_kernel(fl, fr, np.float32(COST_SCALE), n_threads,
+    similarity_cost_kernel(np.ascontiguousarray(fl), np.ascontiguousarray(fr),
+                           np.float32(COST_SCALE), numba.get_num_threads(),
                            np.zeros(1, np.int64), out)
     return out

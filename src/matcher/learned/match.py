@@ -7,14 +7,18 @@ import os
 import numpy as np
 import torch
 
+from matcher._validation import check_image, check_max_disparity, check_same_shape
 from matcher.cost import aggregate_cost
-from matcher.learned.cost import COST_SCALE, learned_cost
+from matcher.learned.cost import COST_SCALE, feature_cost, features
 from matcher.learned.model import LearnedModel, load_model
 from matcher.result import MatchResult
 from matcher.select import winner_takes_all
 from stereoforge.validation import check_bool, check_int
 
-__all__ = ["match_learned", "resolve_device"]
+__all__ = ["VOLUME_BYTES", "match_learned", "resolve_device"]
+
+#: Most bytes of cost volume (uint16 cost and uint32 aggregate) held at once by match_learned.
+VOLUME_BYTES = 64 << 20
 
 
 def resolve_device(device: str) -> torch.device:
@@ -47,7 +51,7 @@ def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str
     """Disparity of each left pixel under a learned cost.
 
     The steps are census's (:func:`matcher.match`): the cost volume
-    (:func:`matcher.learned.cost.learned_cost`), an optional box aggregation
+    (:func:`matcher.learned.cost.learned_cost`, built in strips of rows), an optional box aggregation
     (:func:`matcher.cost.aggregate_cost`), winner-takes-all with ties to the smallest ``d``, an
     optional left-right check and parabola sub-pixel refinement
     (:func:`matcher.select.winner_takes_all`).
@@ -89,11 +93,27 @@ def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str
         raise ParameterError(f"aggregate: expected 1 (none) or an odd box side >= 3, got {agg}")
     lr = check_bool(steps["lr_check"] if lr_check is None else lr_check, "lr_check")
     sub = check_bool(steps["subpixel"] if subpixel is None else subpixel, "subpixel")
-    cost = learned_cost(model, left, right, max_disparity=max_disparity,
-                        device=resolve_device(device))
-    if agg > 1:
-        cost = aggregate_cost(cost, size=agg)
-    disparity = winner_takes_all(cost, lr_check=lr, lr_tolerance=lr_tolerance, subpixel=sub)
+    left, right = check_image(left, "left"), check_image(right, "right")
+    check_same_shape(left, right)
+    h, w = left.shape
+    n_disp = check_max_disparity(max_disparity, w)
+    dev = resolve_device(device)
+    fl, fr = features(model, left, device=dev), features(model, right, device=dev)
+    # strips of rows, each with the box's halo of rows: the aggregation of a strip's rows sees
+    # the same rows (and the same edge replication at the image's top and bottom) as on the
+    # whole volume, and WTA, the LR check and the parabola work row by row, so the disparity is
+    # the whole volume's, bit for bit, with at most VOLUME_BYTES of volume at a time
+    halo = agg // 2 if agg > 1 else 0
+    rows = max(1, VOLUME_BYTES // (n_disp * w * 6) - 2 * halo)
+    disparity = np.empty((h, w), dtype=np.float32)
+    for y0 in range(0, h, rows):
+        y1 = min(h, y0 + rows)
+        a0, a1 = max(0, y0 - halo), min(h, y1 + halo)
+        cost = feature_cost(fl[a0:a1], fr[a0:a1], n_disp)
+        if agg > 1:
+            cost = aggregate_cost(cost, size=agg)
+        strip = winner_takes_all(cost, lr_check=lr, lr_tolerance=lr_tolerance, subpixel=sub)
+        disparity[y0:y1] = strip[y0 - a0:y1 - a0]
     params = {"aggregate": agg, "lr_check": lr, "lr_tolerance": lr_tolerance, "subpixel": sub,
               "cost_scale": COST_SCALE, "model": str(model.path) if model.path else None,
               "architecture": model.arch.to_dict()}

@@ -71,6 +71,11 @@ def bench_match_cmd(out, repeats, isa, matchers) -> None:
         memory.append({"case": f"{method.upper()} 21x21, 1280x960, D=256"
                                + (f", aggregate {aggregate}, LR check" if aggregate else ""),
                        **m, "target_mb": 1024})
+    for spec in matchers:
+        for width, height, n_disp in ((640, 480, 64), (1280, 960, 256)):
+            m = peak_memory(width=width, height=height, max_disparity=n_disp, matcher=spec)
+            memory.append({"case": f"{spec}, {width}x{height}, D={n_disp}", **m,
+                           "target_mb": 1024})
     click.echo(write_table(memory, Path(out), "match-memory"))
 
 

@@ -240,8 +240,10 @@ def bench_match_isas(isa: str = "native", *, sizes: Sequence[tuple[int, int, int
 def peak_memory(
     *, width: int = 1280, height: int = 960, max_disparity: int = 256, window: int = 21,
     method: str = "ct", aggregate: int | None = None, lr_check: bool = False,
+    matcher: str | None = None,
 ) -> dict[str, float]:
-    """Peak memory of one census match: numpy allocations (tracemalloc) and process RSS growth.
+    """Peak memory of one census match (or of a MATCHER string's ``matcher``, called with the
+    RGB pair): numpy allocations (tracemalloc) and process RSS growth.
 
     numba's per-worker buffers are allocated by numba's runtime, which tracemalloc does not see;
     the RSS growth (psutil, sampled in a thread) covers them.
@@ -264,8 +266,20 @@ def peak_memory(
     left, right = textured_pair(width, height, shift=max_disparity // 3, rng=0)
     kwargs = dict(method=method, window=window, max_disparity=max_disparity,
                   aggregate=aggregate, lr_check=lr_check)
-    match(left[:64, :128], right[:64, :128], **{**kwargs, "max_disparity": 16,
-                                                 "window": min(window, 63)})  # compile/load
+    if matcher is not None:
+        from matcher.adapters import resolve_matcher
+
+        resolved = resolve_matcher(matcher)
+        left, right = (np.ascontiguousarray(np.repeat(g[:, :, None], 3, axis=2))
+                       for g in (left, right))
+
+        def run(l_img: np.ndarray, r_img: np.ndarray, n_disp: int) -> None:
+            resolved(l_img, r_img, max_disparity=n_disp)
+    else:
+        def run(l_img: np.ndarray, r_img: np.ndarray, n_disp: int) -> None:
+            match(l_img, r_img, **{**kwargs, "max_disparity": n_disp,
+                                   "window": min(window, 63)})
+    run(left[:64, :128], right[:64, :128], 16)  # compile / load
     gc.collect()
     proc = psutil.Process()
     base = proc.memory_info().rss
@@ -281,7 +295,7 @@ def peak_memory(
     tracemalloc.start()
     sampler.start()
     t0 = time.perf_counter()
-    match(left, right, **kwargs)
+    run(left, right, max_disparity)
     seconds = time.perf_counter() - t0
     stop.set()
     sampler.join()
