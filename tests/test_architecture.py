@@ -98,6 +98,29 @@ def test_without_torch_matcher_works_and_learned_strings_name_the_extra(tmp_path
     assert "pip install 'stereoforge[learn]'" in out.stdout
 
 
+_NO_TORCH = ("import sys\n"
+             "class _NoTorch:\n"
+             "    def find_spec(self, name, path=None, target=None):\n"
+             "        if name.split('.')[0] == 'torch':\n"
+             "            raise ModuleNotFoundError(f'No module named {name!r}', name=name)\n"
+             "sys.meta_path.insert(0, _NoTorch())\n"
+             "from synth.cli import main\n"
+             "main()\n")
+
+
+@pytest.mark.parametrize("args", [["train", "data", "--out", "m.pt", "--steps", "1"],
+                                  ["bench", "transfer", "--out", "o", "--no-ceiling"]],
+                         ids=["train", "bench transfer"])
+def test_without_torch_the_learning_commands_name_the_extra(tmp_path, args):
+    out = subprocess.run([sys.executable, "-c", _NO_TORCH, *args], capture_output=True,
+                         text=True, cwd=tmp_path)
+    assert out.returncode == 1, out.stderr
+    assert out.stderr.strip().splitlines() == [
+        "Error: this command needs the optional package torch, which is not installed; "
+        "pip install 'stereoforge[learn]'"]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_importing_synth_and_its_cli_starts_no_gl():
     statement = "import synth, synth.pair, synth.cli, synth.render, synth.dataset.run"
     assert _loaded_after(statement, ("pyrender", "OpenGL")) == []

@@ -7,11 +7,13 @@ Windows). On any exception the temporary file is removed and the destination is 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
-__all__ = ["atomic_write_bytes", "save_figure_atomic", "write_all_atomic"]
+__all__ = ["atomic_write_bytes", "claim_output", "save_figure_atomic", "write_all_atomic"]
 
 
 def _default_mode() -> int:
@@ -94,3 +96,52 @@ def write_all_atomic(files: dict[Path, bytes], *, fsync: bool = True) -> list[Pa
     destination untouched.
     """
     return [atomic_write_bytes(p, data, fsync=fsync) for p, data in files.items()]
+
+
+@contextlib.contextmanager
+def claim_output(path: str | os.PathLike[str], files: Sequence[str | os.PathLike[str]],
+                 say: Callable[[str], None] | None = None) -> Iterator[None]:
+    """Hold ``PATH.lock`` (an exclusive ``flock``) while a long job writes ``files``.
+
+    A second job on the same ``path`` fails at once, naming it. Once the lock is held, the
+    temporary files :func:`atomic_write_bytes` left for ``files`` when a job was killed
+    mid-write (``kill -9``, the OOM killer) are leftovers of a dead job: they are removed (and
+    ``say`` reports how many). The lock file is removed on the way out.
+
+    Raises
+    ------
+    FileExistsError
+        Another process holds the lock.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     out = pathlib.Path(d, "m.pt")
+    ...     _ = pathlib.Path(d, ".m.pt.abc123.tmp").write_bytes(b"half")
+    ...     with claim_output(out, [out], print):
+    ...         sorted(p.name for p in pathlib.Path(d).iterdir())
+    removed 1 temporary file(s) of an interrupted run beside m.pt
+    ['m.pt.lock']
+    """
+    import fcntl
+
+    path = Path(path)
+    lock = Path(f"{path}.lock")
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, _default_mode())
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FileExistsError(f"{path}: another process is writing it (it holds {lock}); "
+                                  "wait for it to end or choose another --out") from None
+        stale = [p for f in files for p in Path(f).parent.glob(f".{Path(f).name}.*.tmp")]
+        for p in stale:
+            p.unlink(missing_ok=True)
+        if stale and say is not None:
+            say(f"removed {len(stale)} temporary file(s) of an interrupted run beside {path.name}")
+        yield
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            lock.unlink()
+        os.close(fd)

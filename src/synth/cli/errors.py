@@ -11,8 +11,9 @@ exit 2      usage: a bad parameter, a bad configuration, scene or dataset file, 
             errors too)
 exit 1      environment: the GL backend is missing or failed (``BackendError``), a dataset
             sample failed (``SampleError``), an OS error on a path (no space left, read-only,
-            permission denied, a file where a directory should be), out of memory; and an
-            unexpected error (a bug: the message says so)
+            permission denied, a file where a directory should be), an optional package
+            missing (torch, ray, fsspec, webdataset: the message names the extra), out of
+            memory; and an unexpected error (a bug: the message says so)
 ==========  ==============================================================================
 
 ``stereoforge --debug ...`` (or ``STEREOFORGE_DEBUG=1``) lets the exception through with its
@@ -51,6 +52,14 @@ _OS_FIXES = {
     errno.EMFILE: "raise the open-file limit (ulimit -n)",
 }
 
+#: Optional packages a command may need, and what installs them (a missing one is exit 1).
+_OPTIONAL = {
+    "torch": "pip install 'stereoforge[learn]'",
+    "ray": "pip install 'stereoforge[ray]'",
+    "fsspec": "pip install 'stereoforge[storage]'",
+    "webdataset": "pip install 'stereoforge[webdataset]'",
+}
+
 
 def _os_message(exc: OSError) -> str:
     if exc.strerror is None:  # raised with a message of our own: FileNotFoundError("...")
@@ -86,6 +95,10 @@ def describe_error(exc: BaseException) -> tuple[str, int]:
         return _os_message(exc), USAGE
     if isinstance(exc, OSError):
         return _os_message(exc), ENVIRONMENT
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").split(".")[0] in _OPTIONAL:
+        package = (exc.name or "").split(".")[0]
+        return (f"this command needs the optional package {package}, which is not installed; "
+                f"{_OPTIONAL[package]}", ENVIRONMENT)
     if isinstance(exc, MemoryError):
         return ("out of memory; use smaller images, fewer disparities or fewer workers",
                 ENVIRONMENT)

@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from matcher.io.atomic import atomic_write_bytes
+
 __all__ = ["REFERENCES", "TransferResult", "bench_transfer", "draw_transfer"]
 
 #: (label, MATCHER string) of the classical references.
@@ -82,11 +84,16 @@ def _score(estimate: np.ndarray, scene: dict) -> dict:
 
 def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, device: str,
            say: Callable[[str], None]) -> dict:
-    """One ``stereoforge train`` process; reuses a finished model."""
+    """One ``stereoforge train`` process (it dies with this one); reuses a finished model and
+    the wall time recorded beside it (``MODEL.pt.wall``)."""
+    wall_file = Path(f"{model}.wall")
     if model.is_file():
-        say(f"  {model.name}: reused")
-        return {"model": str(model), "wall_s": None, "reused": True}
-    cmd = [sys.executable, "-c", "from synth.cli import main; main()", "train", *sources,
+        wall = float(wall_file.read_text()) if wall_file.is_file() else None
+        say(f"  {model.name}: reused" + (f" (wall {wall:.0f} s)" if wall is not None else ""))
+        return {"model": str(model), "wall_s": wall, "reused": True}
+    boot = ("from synth.dataset.engine import die_with_parent; die_with_parent(); "
+            "from synth.cli import main; main()")
+    cmd = [sys.executable, "-c", boot, "train", *sources,
            "--out", str(model), "--minutes", f"{minutes:g}", "--seed", str(seed),
            "--device", device, "--overwrite"]
     t0 = time.monotonic()
@@ -97,6 +104,7 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
 
         tail = (proc.stderr.strip().splitlines() or ["no message"])[-1]
         raise DatasetError(f"training {model.name} failed: {tail}")
+    atomic_write_bytes(wall_file, f"{wall:.1f}\n".encode())
     say(f"  {model.name}: {proc.stdout.strip()} (wall {wall:.0f} s)")
     return {"model": str(model), "wall_s": round(wall, 1), "reused": False}
 
@@ -135,9 +143,11 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                    log: Callable[[str], None] | None = None) -> TransferResult:
     """Train on each config (and the real scenes, leave-one-out), score on the real scenes."""
     from matcher.adapters import resolve_matcher
-    from synth.dataset import run_dataset
+    from synth.dataset import load_config, run_dataset
 
     say = log or (lambda _m: None)
+    for config in configs:  # a bad config fails before anything is made or trained
+        load_config(config)
     specs = _real_specs(data)
     scenes = _scenes(specs)
     (out / "models").mkdir(parents=True, exist_ok=True)

@@ -33,6 +33,7 @@ import numpy as np
 import torch
 
 from matcher.io import atomic_write_bytes
+from matcher.io.atomic import claim_output
 from matcher.learned import (
     Architecture,
     PatchNet,
@@ -320,6 +321,19 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
             if p.exists():
                 hint = "add --resume to continue it" if p == ckpt_path else "choose another --out"
                 raise DatasetError(f"{p} exists; {hint}, or --overwrite to start afresh")
+    with claim_output(model_path, (model_path, csv_path, ckpt_path), say):
+        return _train_claimed(cfg, start_clock, say, device=device, resume=resume,
+                              workers=workers, threads=threads,
+                              checkpoint_minutes=checkpoint_minutes, show_progress=show_progress,
+                              row_steps=row_steps)
+
+
+def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], None], *,
+                   device: str, resume: bool, workers: int, threads: int | None,
+                   checkpoint_minutes: float, show_progress: bool, row_steps: int
+                   ) -> TrainResult:
+    """:func:`train` once this process holds the output's lock."""
+    model_path, csv_path, ckpt_path = _paths(cfg.out)
     dev = resolve_device(device)
     sources = open_sources(cfg.sources, val_fraction=cfg.val_fraction)
     blob = _load_checkpoint(ckpt_path, cfg, sources) if resume else None
