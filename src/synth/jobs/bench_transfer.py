@@ -20,6 +20,7 @@ CT-9, CT-21 (census WTA) and SGBM-5 (:func:`matcher.match` defaults).
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import subprocess
 import sys
@@ -146,6 +147,8 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     from synth.dataset import load_config, run_dataset
 
     say = log or (lambda _m: None)
+    if importlib.util.find_spec("torch") is None:  # before hours of rendering, not after
+        raise ModuleNotFoundError("No module named 'torch'", name="torch")
     for config in configs:  # a bad config fails before anything is made or trained
         load_config(config)
     specs = _real_specs(data)
