@@ -56,7 +56,8 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
               type=LazyChoice("synth.jobs.bench_match:ISAS"),
               help="avx2: also time an AVX2-only numba build (a fresh process) beside this CPU's.")
 @click.option("--matcher", "matchers", multiple=True, metavar="MATCHER",
-              help="Also time this MATCHER string (NAME[:WINDOW], py:..., cmd:...); repeatable.")
+              help="Also time this MATCHER string (NAME[:WINDOW], learned:MODEL.pt, py:..., "
+                   "cmd:...); repeatable.")
 def bench_match_cmd(out, repeats, isa, matchers) -> None:
     """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
     from synth.jobs.bench_match import bench_match_isas, peak_memory

@@ -36,8 +36,8 @@ def paper(data, size, out) -> None:
 @workers_option
 @backend_option
 @click.option("--matcher", "matchers", multiple=True, metavar="MATCHER",
-              help="Also run this MATCHER string (NAME[:WINDOW], py:..., cmd:...) on every "
-                   "cell; repeatable.")
+              help="Also run this MATCHER string (NAME[:WINDOW], learned:MODEL.pt, py:..., "
+                   "cmd:...) on every cell; repeatable.")
 @click.option("--keep-pairs", is_flag=True,
               help="Keep every cell's pair in --out/pairs/ for `stereoforge eval-dataset`.")
 def study(config, out, workers, backend, matchers, keep_pairs) -> None:

@@ -132,7 +132,8 @@ def eval_cmd(disp, gt, gt_divisor, disp_divisor, mask, delta, as_json, benchmark
 @click.command("eval-dataset")
 @click.argument("folder", type=click.Path(exists=True, file_okay=False, path_type=Path))
 @click.option("--matcher", required=True, metavar="MATCHER",
-              help="NAME[:WINDOW], py:MODULE:FUNCTION, py:FILE.py:FUNCTION or cmd:TEMPLATE.")
+              help="NAME[:WINDOW], learned:MODEL.pt, py:MODULE:FUNCTION, py:FILE.py:FUNCTION or "
+                   "cmd:TEMPLATE.")
 @click.option("--out", "out", default=None, type=click.Path(file_okay=False, path_type=Path),
               help="Output folder (default: FOLDER/eval/<matcher>).")
 @click.option("--max-disp", "max_disp", default=None, type=click.IntRange(min=1),

@@ -121,8 +121,9 @@ def _compare(ctx, compare, out, fail_on) -> None:
 @click.pass_context
 def validate(ctx, matcher, out, suite, against, workers, timeout, axes, real, baseline,
              compare, fail_on, backend, skip_battery) -> None:
-    """Validate MATCHER (NAME[:WINDOW], py:MODULE:FUNCTION, py:FILE.py:FUNCTION or
-    cmd:TEMPLATE) on every axis of the suite, against the references, into --out.
+    """Validate MATCHER (NAME[:WINDOW], learned:MODEL.pt, py:MODULE:FUNCTION,
+    py:FILE.py:FUNCTION or cmd:TEMPLATE) on every axis of the suite, against the references,
+    into --out.
 
     Resumable: rerun the same command and only missing or damaged work is redone.
     """
