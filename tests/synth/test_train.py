@@ -4,6 +4,7 @@ with worker processes over StereoDataset of every layout."""
 
 from __future__ import annotations
 
+import csv
 import importlib.util
 import os
 import signal
@@ -262,3 +263,31 @@ def test_the_torch_example_of_docs_learning_trains(data):
                         "2"], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip().splitlines()[-1].startswith("step 20: loss ")
+
+
+def _rows(path: Path) -> list[dict]:
+    return list(csv.DictReader(path.read_text().splitlines()))
+
+
+@pytest.mark.slow
+def test_bench_transfer_trains_scores_and_draws(tmp_path):
+    """A tiny run: one config, one seed, no ceiling, Motorcycle only (no Middlebury folder)."""
+    config = tmp_path / "tiny.toml"
+    config.write_text(CONFIG.replace("count = 14", "count = 4"))
+    env = {**os.environ, "STEREOFORGE_MIDDLEBURY": str(tmp_path / "none")}
+    out = tmp_path / "bench"
+    r = _cli(["bench", "transfer", "--configs", str(config), "--count", "4", "--minutes", "0.3",
+              "--no-ceiling", "--out", str(out)], env=env)
+    assert r.returncode == 0, r.stderr
+    summary = _rows(out / "transfer.csv")
+    assert [row["method"] for row in summary] == ["CT-9", "CT-21", "SGBM-5", "learned on tiny"]
+    scenes = _rows(out / "transfer-scenes.csv")
+    assert {row["scene"] for row in scenes} == {"Motorcycle"}
+    assert all(0.0 <= float(row["bad3_all"]) <= 100.0 for row in scenes)
+    (model,) = _rows(out / "transfer-models.csv")
+    assert int(model["steps"]) > 0 and float(model["wall_s"]) < 120
+    assert (out / "models" / "tiny-seed0.pt.wall").is_file()
+    assert (out / "transfer.png").read_bytes()[:4] == b"\x89PNG"
+    again = _cli(["bench", "transfer", "--configs", str(config), "--count", "4", "--minutes",
+                  "0.3", "--no-ceiling", "--out", str(out)], env=env)
+    assert again.returncode == 0 and "tiny-seed0.pt: reused" in again.stderr, again.stderr

@@ -181,7 +181,13 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
             est = m(scene["left"], scene["right"], max_disparity=scene["max_disparity"])
             rows.append({"method": label, "trained_on": "", "seed": 0, "scene": scene["name"],
                          **_score(est, scene)})
+    from matcher.learned import load_model
+
     for info in models:
+        training = load_model(info["model"]).header["training"]
+        info.update(steps=training["steps"], patches=training["patches"],
+                    train_s=training["seconds"], train_loss=training["train_loss"],
+                    val_loss=training["val_loss"])
         m = resolve_matcher(f"learned:{info['model']}")
         label = f"learned on {info['trained_on']}"
         for scene in scenes:
