@@ -126,10 +126,10 @@ def _worker_init(_worker_id: int) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
-def _tensors(crop: Crop, device: torch.device) -> tuple:
+def _right_tensors(crop: Crop, device: torch.device) -> tuple:
+    """A crop's right strip (1, 1, h, w) and its patches' rows, columns, positives, negatives."""
     t = lambda a: torch.from_numpy(np.ascontiguousarray(a)).to(device)  # noqa: E731
-    return (t(crop.left)[None, None], t(crop.right)[None, None], t(crop.ys), t(crop.xs),
-            t(crop.x_pos), t(crop.x_neg))
+    return t(crop.right)[None, None], t(crop.ys), t(crop.xs), t(crop.x_pos), t(crop.x_neg)
 
 
 def _batch_loss(net: PatchNet, batch: list[Crop], device: torch.device
@@ -142,7 +142,7 @@ def _batch_loss(net: PatchNet, batch: list[Crop], device: torch.device
     fl = net(lefts)  # every left block has the same size: one pass
     pos, neg = [], []
     for i, crop in enumerate(batch):
-        _, right, ys, xs, xp, xn = _tensors(crop, device)
+        right, ys, xs, xp, xn = _right_tensors(crop, device)
         sp, sn = pair_scores(fl[i], net(right)[0], ys, xs, xp, xn)
         pos.append(sp)
         neg.append(sn)
