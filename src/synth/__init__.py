@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from synth._lazy import lazy_namespace
+from synth._util.lazy import lazy_namespace
 
 if TYPE_CHECKING:
     from synth.dataset import (

@@ -31,7 +31,7 @@ from matcher.io import (
 from scenes import PRESETS, SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_input_file
-from synth._json import json_bytes
+from synth._util.json_records import json_bytes
 from synth.formats import FORMATS, KITTI_ROOT, MIDDLEBURY_LAYOUTS
 from synth.pair import StereoPair
 from synth.preview import preview_image

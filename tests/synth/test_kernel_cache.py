@@ -8,7 +8,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-from synth.kernel_cache import DATASET_KERNELS, MATCHER_KERNELS, _cache_dir, _source, missing_kernels
+from synth._util.kernel_cache import (DATASET_KERNELS, MATCHER_KERNELS, _cache_dir, _source,
+                                      missing_kernels)
 
 
 def test_an_empty_cache_misses_every_kernel_file_and_one_index_is_enough(tmp_path, monkeypatch):
@@ -30,7 +31,7 @@ def test_an_empty_cache_misses_every_kernel_file_and_one_index_is_enough(tmp_pat
 
 _SCRIPT = """\
 from numba import njit
-from synth.kernel_cache import compile_notice
+from synth._util.kernel_cache import compile_notice
 
 
 @njit(cache=True)
@@ -67,7 +68,7 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
 
 
 def test_a_partly_filled_cache_says_nothing(tmp_path, monkeypatch):
-    from synth.kernel_cache import compile_notice
+    from synth._util.kernel_cache import compile_notice
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     said: list[str] = []

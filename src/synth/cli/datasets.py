@@ -114,7 +114,7 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
         from synth.dataset.shards import check_disp_encoding
 
         disp_encoding = check_disp_encoding(fmt, disp_encoding)
-    from synth.kernel_cache import DATASET_KERNELS, compile_notice
+    from synth._util.kernel_cache import DATASET_KERNELS, compile_notice
 
     with compile_notice(DATASET_KERNELS, note) as cold:
         if cold:  # compile here once, before any worker: the workers then load them from the cache

@@ -20,7 +20,7 @@ __all__ = ["golden", "paper", "study"]
 def paper(data, size, out) -> None:
     """Reproduce the seed paper's Tables 1-3 and figures on the real Middlebury scenes."""
     from synth.jobs.paper import run_paper
-    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
+    from synth._util.kernel_cache import MATCHER_KERNELS, compile_notice
 
     if not (data / size).is_dir():
         fail(FileNotFoundError(
@@ -50,7 +50,7 @@ def study(config, out, workers, backend, matchers, keep_pairs) -> None:
 
         start_worker_server(["synth.jobs.study"])
     from synth.jobs.study import run_study
-    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
+    from synth._util.kernel_cache import MATCHER_KERNELS, compile_notice
 
     with compile_notice(MATCHER_KERNELS, note):  # the workers compile too: this times the parent
         path = run_study(config, out=out, workers=workers, progress=True, backend=backend,

@@ -34,7 +34,7 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
     from matcher import match
     from matcher.io import read_image, write_pfm
     from synth.jobs.timing import first_and_warm
-    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
+    from synth._util.kernel_cache import MATCHER_KERNELS, compile_notice
 
     if out.suffix.lower() != ".pfm":
         fail(ValueError(f"--out must be a .pfm file (got {out.name})"))

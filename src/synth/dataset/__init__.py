@@ -14,7 +14,7 @@
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
   and the texture-versus-window study).
 
-Names load from their modules on first use (:mod:`synth._lazy`): ``synth.dataset.engine`` alone
+Names load from their modules on first use (:mod:`synth._util.lazy`): ``synth.dataset.engine`` alone
 stays light, for the command line and the worker server.
 """
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from synth._lazy import lazy_namespace
+from synth._util.lazy import lazy_namespace
 
 if TYPE_CHECKING:
     from synth.dataset.config import (

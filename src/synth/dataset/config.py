@@ -28,7 +28,7 @@ import numpy as np
 
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.validation import check_input_file, check_keys, describe
-from synth._toml import TomlSource, parse_toml, read_toml_text
+from synth._util.toml_lines import TomlSource, parse_toml, read_toml_text
 from synth.camera import Defocus, Distortion, RigErrors
 from synth.dataset.config_keys import (
     DIST_FORMS,

@@ -23,7 +23,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from stereoforge.errors import DatasetError
-from synth._json import json_bytes
+from synth._util.json_records import json_bytes
 from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
                                   check_layout, dataset_format, record_path, sample_dir,
                                   sample_parent, tools_root)

@@ -36,7 +36,7 @@ from pathlib import Path
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
-from synth._json import json_bytes, read_json_object
+from synth._util.json_records import json_bytes, read_json_object
 from synth.dataset.storage import FsPath, dataset_path, write_bytes
 from synth.formats import KITTI_ROOT
 

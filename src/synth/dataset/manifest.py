@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from synth._json import read_json_object
+from synth._util.json_records import read_json_object
 from synth.dataset.layout import SAMPLE_DIR, sample_dirs
 from synth.dataset.shards import packed_records
 

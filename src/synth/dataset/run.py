@@ -45,7 +45,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 
-from synth._json import json_bytes, read_json_object
+from synth._util.json_records import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
 from synth.dataset.commit import commit_files, commit_returned
 from synth.dataset.config import DatasetConfig, config_from_dict, load_config
@@ -62,7 +62,7 @@ from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_o
 from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, write_bytes
 from synth.export import staged_output_dir
 from synth.formats import DATASET_FORMATS
-from synth.progress import progress as progress_bar
+from synth._util.progress import progress as progress_bar
 from synth.texture_control import CANNY_SETTINGS
 
 # SampleError, SampleTask, produce_sample, render_draw (synth.dataset.sample) and the commit

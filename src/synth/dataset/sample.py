@@ -20,7 +20,7 @@ import numpy as np
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
-from synth._json import json_bytes
+from synth._util.json_records import json_bytes
 from synth.dataset.commit import commit_local, dataset_files, returned_files, write_record
 from synth.dataset.config import DatasetConfig, config_from_dict
 from synth.dataset.integrity import completion_record

@@ -40,7 +40,7 @@ from collections.abc import Callable
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, ParameterError
-from synth._json import read_json_object
+from synth._util.json_records import read_json_object
 from synth.dataset.storage import FsPath, dataset_path
 
 __all__ = ["DEFAULT_SHARD_SIZE", "DISP_ENCODINGS", "FIELDS", "INDEX", "check_disp_encoding",

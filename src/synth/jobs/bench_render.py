@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 
-from synth.progress import progress as progress_bar
+from synth._util.progress import progress as progress_bar
 from synth.jobs.machine import MachineInfo, describe_machine
 
 __all__ = ["parse_sizes", "bench_render", "format_markdown", "write_table"]

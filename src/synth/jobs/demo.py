@@ -7,7 +7,7 @@ from pathlib import Path
 
 from scenes import list_presets
 from synth.export import resolve_scene, staged_output_dir, write_pair
-from synth.progress import progress as progress_bar
+from synth._util.progress import progress as progress_bar
 from synth.pair import render_pair
 from synth.preview import contact_sheet
 from synth.render.renderer import Renderer

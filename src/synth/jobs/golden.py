@@ -52,7 +52,7 @@ from matcher import match
 from matcher.io import atomic_write_bytes, decode_pfm, encode_pfm, load_middlebury_2014, read_pfm
 from matcher.metrics import evaluate
 from stereoforge.errors import FormatError, StereoforgeError
-from synth._json import loads_json_object, read_json_object
+from synth._util.json_records import loads_json_object, read_json_object
 from synth.jobs.golden_compare import (
     TOLERANCES,
     RenderDiff,

@@ -28,7 +28,7 @@ from matcher.io import atomic_write_bytes, load_middlebury_2005, save_figure_ato
 from matcher.match import match
 from matcher.metrics import evaluate
 from synth.jobs.paper_figures import PAPER_COLUMNS, fig_colour_maps, fig_pobmp_window, table1_with_paper
-from synth.progress import progress as progress_bar
+from synth._util.progress import progress as progress_bar
 
 __all__ = ["PAPER_SCENES", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SIZES", "run_paper"]
 
@@ -278,7 +278,7 @@ def run_paper(
         window, the paper's Table 1 overlaid), ``colour_<scene>.png`` (colour-mapped
         disparities and error maps with colour bars, unknown ground truth in the legend).
     progress : bool, default True
-        Show a progress bar on stderr (:func:`synth.progress.progress`).
+        Show a progress bar on stderr (:func:`synth._util.progress.progress`).
     windows : sequence of int
         Census windows of Table 1 (odd, >= 3).
     max_windows : sequence of int

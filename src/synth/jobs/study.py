@@ -46,8 +46,8 @@ import numpy as np
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
-from synth._json import read_json_object
-from synth.progress import progress as progress_bar
+from synth._util.json_records import read_json_object
+from synth._util.progress import progress as progress_bar
 from synth.dataset.engine import run_tasks
 from synth.jobs.study_config import (
     StudyConfig,
@@ -295,7 +295,7 @@ def run_study(config: str | Path | StudyConfig, *, out: str | Path, workers: int
     workers : int
         Worker processes (one GL renderer each; ``1`` runs in this process).
     progress : bool
-        Show a progress bar on stderr (:func:`synth.progress.progress`).
+        Show a progress bar on stderr (:func:`synth._util.progress.progress`).
     backend : {"auto", "egl", "osmesa"}
     matchers : sequence of str
         MATCHER strings (:func:`matcher.adapters.resolve_matcher`: ``py:...``, ``cmd:...``,

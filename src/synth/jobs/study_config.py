@@ -15,7 +15,7 @@ from scenes.spec import TEXTURE_KINDS
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
 from stereoforge.validation import check_input_file
-from synth._toml import TomlSource, parse_toml, read_toml_text
+from synth._util.toml_lines import TomlSource, parse_toml, read_toml_text
 from synth.rig import StereoRig
 
 __all__ = ["SCHEMA", "StudyConfig", "StudyConfigError", "load_study_config",

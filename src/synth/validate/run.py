@@ -214,7 +214,7 @@ def _pairs(specs: list, out: Path, suite: str, backend: str, workers: int, progr
     baseline ``base`` (if any), made (real scenes, in this process) or rendered (``workers``
     GL processes). ``({index: sample record}, rendered or made, copied)``."""
     from synth.dataset.engine import run_tasks
-    from synth.progress import progress as progress_bar
+    from synth._util.progress import progress as progress_bar
     from synth.validate.axes import SUITES
     from synth.validate.baseline import adopt_pairs
     from synth.validate.pairs import PairSpec, verify_pair_folder
@@ -294,7 +294,7 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     from synth.validate.axes import AXES
     from synth.validate.baseline import (RUN_RECORD, adopt_estimates, baseline_label,
                                          check_same_pairs, load_run, run_record)
-    from synth.progress import progress as progress_bar
+    from synth._util.progress import progress as progress_bar
     from synth.validate.differences import difference_table, differences_csv
     from synth.validate.pairs import record_digest
     from synth.validate.real import resolve_real

@@ -386,7 +386,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
     bar = None
     loader = iter(())
     try:
-        from synth.progress import progress
+        from synth._util.progress import progress
 
         bar = progress(total=cfg.steps if cfg.steps is not None else int(budget), initial=0,
                        desc="train", unit="step" if cfg.steps is not None else "s",
