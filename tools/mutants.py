@@ -189,7 +189,7 @@ MUTANTS += (
     ),
     Mutant(
         "calib baseline in metres",
-        "src/synth/rig.py",
+        "src/synth/camera/rig.py",
         (('"baseline": self.baseline * 1000.0,', '"baseline": self.baseline,'),),
         "calib.txt baseline in metres instead of Middlebury's millimetres",
         _CALIB,
@@ -272,7 +272,7 @@ MUTANTS += (
     ),
     Mutant(
         "disparity from fy",
-        "src/synth/rig.py",
+        "src/synth/camera/rig.py",
         (("d = np.divide(self.fx * self.baseline, z,", "d = np.divide(self.fy * self.baseline, z,"),),
         "d = fy * B / Z: wrong for every rig with non-square pixels",
         _CALIB,

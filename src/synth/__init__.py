@@ -38,13 +38,13 @@ if TYPE_CHECKING:
         render_from_manifest,
         run_dataset,
     )
-    from synth.camera import Defocus, Distortion, RigErrors
+    from synth.camera.lens import Defocus, Distortion, RigErrors
     from synth.export import OutputDirError, write_pair
     from synth.formats import FORMATS
     from synth.pair import StereoPair, occlusion_mask, render_pair
     from synth.photometric import PhotometricPair, PhotometricParams, apply_photometric
     from synth.render import BACKENDS, GLBackendError, Renderer, ViewRender, resolve_backend
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
 #: Public name -> the module that defines it.
 _EXPORTS = {
@@ -53,19 +53,19 @@ _EXPORTS = {
     "DatasetConfig": "synth.dataset",
     "DatasetError": "synth.dataset",
     "DatasetRun": "synth.dataset",
-    "Defocus": "synth.camera",
-    "Distortion": "synth.camera",
+    "Defocus": "synth.camera.lens",
+    "Distortion": "synth.camera.lens",
     "FORMATS": "synth.formats",
     "GLBackendError": "synth.render",
     "OutputDirError": "synth.export",
     "PhotometricPair": "synth.photometric",
     "PhotometricParams": "synth.photometric",
     "Renderer": "synth.render",
-    "RigErrors": "synth.camera",
+    "RigErrors": "synth.camera.lens",
     "SampleError": "synth.dataset",
     "StereoDataset": "synth.dataset",
     "StereoPair": "synth.pair",
-    "StereoRig": "synth.rig",
+    "StereoRig": "synth.camera.rig",
     "ViewRender": "synth.render",
     "apply_photometric": "synth.photometric",
     "load_config": "synth.dataset",

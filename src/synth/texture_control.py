@@ -217,7 +217,7 @@ def match_edge_density(
     ...     x = np.arange(64)
     ...     return np.repeat(((np.sin(2 * np.pi * f * x) > 0) * 200).astype(np.uint8)[None],
     ...                      48, axis=0)
-    >>> from synth.rig import StereoRig
+    >>> from synth.camera.rig import StereoRig
     >>> r = match_edge_density(scenes.get_preset("fronto_plane"), StereoRig.default(64, 48), 0.1,
     ...                        render_left=fake)
     >>> abs(r.edge_density - 0.1) <= 0.02

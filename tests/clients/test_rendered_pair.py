@@ -15,7 +15,7 @@ from matcher.benchmarks import kitti_2015, middlebury_v3
 from scenes import get_preset
 from synth.export import write_pair
 from synth.pair import render_pair
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 @pytest.mark.gl

@@ -10,7 +10,7 @@ import pytest
 from scenes import get_preset, plane_equation
 from synth.export import foreground_map, staged_output_dir
 from synth.pair import StereoPair
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 def _pair(disp_left: np.ndarray, rig: StereoRig) -> StereoPair:

@@ -16,7 +16,7 @@ from synth.dataset.run import run_dataset
 from synth.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
                                 render_ground_truth, right_occlusion_mask, semantic_lut)
 from synth.pair import occlusion_mask, render_pair
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 RIG = StereoRig.default(64, 48)
 

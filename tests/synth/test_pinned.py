@@ -193,7 +193,7 @@ def test_calib_ndisp_is_above_vmax_also_on_a_multiple_of_16(top, vmax, ndisp):
     from types import SimpleNamespace
 
     from synth.export import calib_for
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
     disp = np.array([[np.inf, 3.25, top]], np.float32)
     rig = StereoRig(width=3, height=1, fx=100.0, fy=100.0, cx=1.0, cy=0.0, baseline=0.1)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import scenes
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 from synth.texture_control import (
     CANNY_SETTINGS,
     SEARCH_TOL,

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import scenes
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 from synth.texture_control import SEARCH_TOL, match_edge_density, retexture
 
 RIG = StereoRig.default(64, 48)

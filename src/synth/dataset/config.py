@@ -29,7 +29,7 @@ import numpy as np
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.validation import check_input_file, check_keys, describe
 from synth._util.toml_lines import TomlSource, parse_toml, read_toml_text
-from synth.camera import Defocus, Distortion, RigErrors
+from synth.camera.lens import Defocus, Distortion, RigErrors
 from synth.dataset.config_keys import (
     DIST_FORMS,
     DIST_KINDS,
@@ -42,7 +42,7 @@ from synth.dataset.config_keys import (
     SCHEMA,
     allowed_values,
 )
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = [
     "ConfigError",

@@ -12,7 +12,7 @@ from typing import Mapping
 from scenes import PRESETS
 from scenes.materials import MAX_LAMPS, SPECULAR_MODELS
 from stereoforge.schema import Key
-from synth.camera import F_SCALE_RANGE, MAX_ROTATION_DEG
+from synth.camera.lens import F_SCALE_RANGE, MAX_ROTATION_DEG
 
 __all__ = ["SCHEMA", "EXAMPLES", "PER_OBJECT_KEYS", "DIST_KINDS", "DIST_SECTIONS", "DIST_FORMS",
            "DISTORTION_KEYS", "IDEAL_RIG_KEYS", "GROUND_TRUTH_KINDS", "MAX_SEED",
@@ -64,7 +64,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
                         doc="baseline, metres"),
         "near": Key("float", 0.1, lo=0.0, lo_open=True, doc="near plane, metres"),
         "far": Key("float", 100.0, lo=0.0, lo_open=True, doc="far plane, metres"),
-        # the real cameras (synth.camera.RigErrors); unset = the ideal rig, today's bytes
+        # the real cameras (synth.camera.lens.RigErrors); unset = the ideal rig, today's bytes
         "fy": Key("float", None, lo=0.0, lo_open=True, doc="vertical focal length, pixels"),
         **{f"{side}{k}": Key("float", None, lo=-2.0 if k[0] == "k" else -0.05,
                              hi=2.0 if k[0] == "k" else 0.05,

@@ -324,7 +324,7 @@ def check_edge_density(
     """
     from scenes import get_preset
     from synth.render.renderer import Renderer
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
     from synth.texture_control import match_edge_density, retexture
 
     rig = StereoRig.default(*size)

@@ -76,7 +76,7 @@ def bench_render(
     from synth.export import write_pair
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
     names = list(presets) if presets is not None else [name for name, _ in list_presets()]
     rows = []

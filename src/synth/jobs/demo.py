@@ -11,7 +11,7 @@ from synth._util.progress import progress as progress_bar
 from synth.pair import render_pair
 from synth.preview import contact_sheet
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = ["run_demo"]
 

@@ -61,7 +61,7 @@ from synth.jobs.golden_compare import (
     image_stats,
     records_differ,
 )
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = [
     "GOLDEN_SCENES", "GOLDEN_CASES", "GOLDEN_RIG", "MAX_DISPARITY", "DELTA", "TOLERANCES",

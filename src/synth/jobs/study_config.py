@@ -16,7 +16,7 @@ from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.schema import Key
 from stereoforge.validation import check_input_file
 from synth._util.toml_lines import TomlSource, parse_toml, read_toml_text
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = ["SCHEMA", "StudyConfig", "StudyConfigError", "load_study_config",
            "loads_study_config", "list_studies"]

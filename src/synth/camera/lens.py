@@ -1,6 +1,6 @@
 """Real cameras of a stereo rig: OpenCV lens distortion, a rectification error, defocus.
 
-A :class:`~synth.rig.StereoRig` describes the *ideal* rectified pair (its ground truth is
+A :class:`~synth.camera.rig.StereoRig` describes the *ideal* rectified pair (its ground truth is
 ``disp0GT.pfm``). :class:`RigErrors` describes how the real cameras that take the images deviate
 from it; ``StereoRig(..., errors=RigErrors(...))`` renders images through them and writes the
 exact left -> right correspondence as ``flow0.flo`` (see ``docs/formats.md``).

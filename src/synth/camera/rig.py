@@ -14,7 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from stereoforge.validation import check_choice, check_int, check_keys, check_real, fail
-from synth.camera import RigErrors
+from synth.camera.lens import RigErrors
 
 __all__ = ["StereoRig"]
 
@@ -39,7 +39,7 @@ class StereoRig:
         ``(baseline, 0, 0)`` in the left camera's frame.
     near, far : float
         Depth range (metres, along the optical axis) the renderer accepts.
-    errors : synth.camera.RigErrors, optional
+    errors : synth.camera.lens.RigErrors, optional
         How the real cameras deviate from this ideal rig (lens distortion, rotation, vertical
         offset, focal ratio, defocus). ``None`` (default): the cameras are this ideal rig. The
         ground truth (disparity, depth, mask) is always that of the ideal rig; with errors the

@@ -5,7 +5,7 @@
   distortion only re-map rays, so this is exact up to resampling). The pinhole render is
   oversampled ``SUPERSAMPLE`` x and wide enough for every ray of the camera; each output pixel
   averages ``SUPERSAMPLE^2`` sub-pixel rays sampled bilinearly (float64 weights) from it.
-  Optional defocus (:class:`~synth.camera.Defocus`) follows.
+  Optional defocus (:class:`~synth.camera.lens.Defocus`) follows.
 * **Flow** (:func:`camera_flow`): each left pixel centre -> its ray through the real left camera
   (Newton-inverted distortion, converged to 1e-13) -> the first surface hit by ray casting the
   scene's triangles (trimesh; embree when installed), refined in float64 by intersecting the ray
@@ -27,8 +27,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from stereoforge.errors import BackendError
-from synth.camera import Defocus, pixel_rays, project, rotation_matrix
-from synth.rig import StereoRig
+from synth.camera.lens import Defocus, pixel_rays, project, rotation_matrix
+from synth.camera.rig import StereoRig
 
 __all__ = ["SUPERSAMPLE", "VISIBLE_RTOL", "RealViews", "camera_flow", "real_views",
            "defocus_image"]
