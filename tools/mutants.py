@@ -219,14 +219,14 @@ MUTANTS += (
     ),
     Mutant(
         "blur border replicated",
-        "src/synth/photometric.py",
+        "src/synth/appearance/photometric.py",
         (("borderType=cv2.BORDER_REFLECT_101", "borderType=cv2.BORDER_REPLICATE"),),
         "the documented reflected border becomes a replicated one",
         _PHOTOMETRIC,
     ),
     Mutant(
         "gain applied after the bias",
-        "src/synth/photometric.py",
+        "src/synth/appearance/photometric.py",
         (("return cv2.addWeighted(img, gain, noise, 1.0, bias, dtype=cv2.CV_8U)",
           "return cv2.addWeighted(img, gain, noise, 1.0, bias * gain, dtype=cv2.CV_8U)"),),
         "with noise, the right image is (x + bias) * gain instead of x * gain + bias",
@@ -234,7 +234,7 @@ MUTANTS += (
     ),
     Mutant(
         "gamma inverted on blurred images",
-        "src/synth/photometric.py",
+        "src/synth/appearance/photometric.py",
         (("np.power(img, np.float32(gamma), out=img)",
           "np.power(img, np.float32(1.0 / gamma), out=img)"),),
         "255 * (x / 255) ** (1 / gamma)",
@@ -264,7 +264,7 @@ MUTANTS += (
     ),
     Mutant(
         "JPEG round trip of the left image only",
-        "src/synth/photometric.py",
+        "src/synth/appearance/photometric.py",
         (("out = [_jpeg(img, params.jpeg_quality) for img in out]",
           "out = [_jpeg(out[0], params.jpeg_quality), out[1]]"),),
         "the right image skips the JPEG round trip (the two views see different sensors)",

@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from synth.export import OutputDirError, write_pair
     from synth.formats import FORMATS
     from synth.pair import StereoPair, occlusion_mask, render_pair
-    from synth.photometric import PhotometricPair, PhotometricParams, apply_photometric
+    from synth.appearance.photometric import PhotometricPair, PhotometricParams, apply_photometric
     from synth.render import BACKENDS, GLBackendError, Renderer, ViewRender, resolve_backend
     from synth.camera.rig import StereoRig
 
@@ -58,8 +58,8 @@ _EXPORTS = {
     "FORMATS": "synth.formats",
     "GLBackendError": "synth.render",
     "OutputDirError": "synth.export",
-    "PhotometricPair": "synth.photometric",
-    "PhotometricParams": "synth.photometric",
+    "PhotometricPair": "synth.appearance.photometric",
+    "PhotometricParams": "synth.appearance.photometric",
     "Renderer": "synth.render",
     "RigErrors": "synth.camera.lens",
     "SampleError": "synth.dataset",
@@ -67,7 +67,7 @@ _EXPORTS = {
     "StereoPair": "synth.pair",
     "StereoRig": "synth.camera.rig",
     "ViewRender": "synth.render",
-    "apply_photometric": "synth.photometric",
+    "apply_photometric": "synth.appearance.photometric",
     "load_config": "synth.dataset",
     "occlusion_mask": "synth.pair",
     "read_manifest": "synth.dataset",

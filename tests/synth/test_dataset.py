@@ -385,7 +385,7 @@ def test_edge_density_config_reaches_its_targets(tmp_path, renderer):
 @pytest.mark.gl
 def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, monkeypatch):
     import synth.dataset.sample as dataset
-    from synth.texture_control import edge_density
+    from synth.appearance.texture_control import edge_density
 
     text = CONFIG.replace("count = 12", "count = 2").replace("width = 48", "width = 64").replace(
         "height = 32", "height = 48").replace(

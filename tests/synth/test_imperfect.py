@@ -25,7 +25,7 @@ from synth.pair import render_pair
 from synth.render.renderer import Renderer
 from synth.camera.rig import StereoRig
 from synth.testing import rig_errors
-from synth.texture_control import retexture
+from synth.appearance.texture_control import retexture
 
 pytestmark = pytest.mark.gl
 

@@ -15,8 +15,8 @@ from scenes import scene_from_dict
 from synth.dataset.config import loads_config
 from synth.dataset.run import read_manifest, run_dataset
 from synth.dataset.sampling import draw_sample, effective_frequency_px
-from synth.photometric import PhotometricParams, apply_photometric
-from synth.texture_control import edge_density
+from synth.appearance.photometric import PhotometricParams, apply_photometric
+from synth.appearance.texture_control import edge_density
 
 _TINY = """\
 name = "pinned"

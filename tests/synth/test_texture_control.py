@@ -7,7 +7,7 @@ import pytest
 
 import scenes
 from synth.camera.rig import StereoRig
-from synth.texture_control import (
+from synth.appearance.texture_control import (
     CANNY_SETTINGS,
     SEARCH_TOL,
     edge_density,

@@ -33,7 +33,7 @@ MATCHER_KERNELS = ("matcher/_kernels/census.py", "matcher/_kernels/canny.py",
                    "matcher/_kernels/aggregate.py", "matcher/_kernels/select.py",
                    "matcher/_kernels/learned.py")
 #: Source files of the kernels a dataset sample compiles (occlusion mask, noise, Canny).
-DATASET_KERNELS = ("synth/pair.py", "synth/photometric.py", "matcher/_kernels/canny.py")
+DATASET_KERNELS = ("synth/pair.py", "synth/appearance/photometric.py", "matcher/_kernels/canny.py")
 
 
 def _source(rel: str) -> Path | None:

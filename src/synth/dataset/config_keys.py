@@ -131,7 +131,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "object_angle": Key("float", None, doc="texture angle per object, degrees"),
         "textureless_area": Key("float", None, lo=0.0, hi=1.0,
                                 doc="target share of the left image showing constant-textured "
-                                    "objects (measured, synth.textureless)"),
+                                    "objects (measured, synth.appearance.textureless)"),
     },
     "photometric": {
         "noise_sigma": Key("float", 0.0, lo=0.0, hi=64.0,

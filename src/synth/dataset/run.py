@@ -63,7 +63,7 @@ from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, w
 from synth.export import staged_output_dir
 from synth.formats import DATASET_FORMATS
 from synth._util.progress import progress as progress_bar
-from synth.texture_control import CANNY_SETTINGS
+from synth.appearance.texture_control import CANNY_SETTINGS
 
 # SampleError, SampleTask, produce_sample, render_draw (synth.dataset.sample) and the commit
 # functions (synth.dataset.commit) are re-exported: the run's public surface stays in one place
@@ -72,7 +72,7 @@ __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_s
            "commit_returned"]
 
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
-#: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
+#: (``synth.appearance.photometric.gaussian_noise``); a dataset of another version is not resumed.
 _FORMAT_VERSION = 2
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _HEADER_KEYS = {"config": dict, "format": str}

@@ -35,8 +35,8 @@ from synth.dataset.sampling import (
     stream,
 )
 from synth.export import write_pair
-from synth.photometric import apply_photometric
-from synth.texture_control import edge_density, match_edge_density
+from synth.appearance.photometric import apply_photometric
+from synth.appearance.texture_control import edge_density, match_edge_density
 
 __all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw"]
 
@@ -57,8 +57,8 @@ class SampleError(StereoforgeError, RuntimeError):
 def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
                  ) -> tuple[Any, float]:
     """The scene with objects made constant toward ``textureless_area`` (stream 5 orders them),
-    and its measured textureless fraction (:mod:`synth.textureless`)."""
-    from synth.textureless import match_textureless, object_coverage
+    and its measured textureless fraction (:mod:`synth.appearance.textureless`)."""
+    from synth.appearance.textureless import match_textureless, object_coverage
 
     rig = config.rig
     coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)

@@ -32,8 +32,8 @@ from scenes import (
 from scenes.assets import load_mesh_file
 from scenes.materials import turn_lights
 from synth.dataset.config import PER_OBJECT_KEYS, DatasetConfig
-from synth.photometric import PhotometricParams
-from synth.texture_control import retexture
+from synth.appearance.photometric import PhotometricParams
+from synth.appearance.texture_control import retexture
 
 __all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px",
            "STREAM_PHOTOMETRIC", "STREAM_EXPOSURE_NOISE", "STREAM_LIGHTING_NOISE",

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from synth.pair import occlusion_mask
-from synth.photometric import gaussian_noise
+from synth.appearance.photometric import gaussian_noise
 
 __all__ = ["warm_sample_kernels"]
 
@@ -22,7 +22,7 @@ __all__ = ["warm_sample_kernels"]
 def warm_sample_kernels() -> None:
     """Compile (or load) every numba kernel a dataset sample runs, with tiny inputs of the
     samples' dtypes: the occlusion mask, the noise lookup and the edge density's Canny."""
-    from synth.texture_control import edge_density
+    from synth.appearance.texture_control import edge_density
 
     occlusion_mask(np.zeros((1, 2)), np.zeros((1, 2)))
     gaussian_noise((1,), 1.0, rng=0)

@@ -325,7 +325,7 @@ def check_edge_density(
     from scenes import get_preset
     from synth.render.renderer import Renderer
     from synth.camera.rig import StereoRig
-    from synth.texture_control import match_edge_density, retexture
+    from synth.appearance.texture_control import match_edge_density, retexture
 
     rig = StereoRig.default(*size)
     rows = []

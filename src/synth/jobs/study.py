@@ -2,11 +2,12 @@
 
 A study sweeps, over several seeds of generated scenes, the texture of every object (noise,
 checker or stripes) at given **frequencies** (cycles per pixel at each object's reference depth
-``Z``, its centre: ``f_m = f_px * fx / Z`` cycles per metre, :func:`synth.texture_control.retexture`)
-or at given **edge densities** (closed loop, :func:`synth.texture_control.match_edge_density`),
-times contrasts, times census window sides and matcher methods. One *cell* is one rendered pair
-(scene kind, texture level, contrast, seed), with photometric noise of ``noise_sigma`` grey levels
-drawn from a seed derived from the cell; every method x window is run on it.
+``Z``, its centre: ``f_m = f_px * fx / Z`` cycles per metre,
+:func:`synth.appearance.texture_control.retexture`) or at given **edge densities** (closed loop,
+:func:`synth.appearance.texture_control.match_edge_density`), times contrasts, times census window
+sides and matcher methods. One *cell* is one rendered pair (scene kind, texture level, contrast,
+seed), with photometric noise of ``noise_sigma`` grey levels drawn from a seed derived from the
+cell; every method x window is run on it.
 
 Outputs in ``out``:
 
@@ -26,7 +27,7 @@ pixels whose match lies outside the right image is bad for every method whatever
 ``pobmp_all`` (the paper's "all pixels with ground truth") is in the CSV too. Edge density is the
 fraction of Canny edge pixels of the left image the matchers see (after the photometric noise),
 :func:`matcher.edges.canny_edges` with its defaults (sigma 1, thresholds 0.1 / 0.2 of the range),
-via :func:`synth.texture_control.edge_density`.
+via :func:`synth.appearance.texture_control.edge_density`.
 """
 
 from __future__ import annotations
@@ -162,8 +163,8 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
     from matcher.metrics import evaluate
     from scenes import get_preset
     from synth.pair import render_pair
-    from synth.photometric import PhotometricParams, apply_photometric
-    from synth.texture_control import edge_density, match_edge_density, retexture
+    from synth.appearance.photometric import PhotometricParams, apply_photometric
+    from synth.appearance.texture_control import edge_density, match_edge_density, retexture
 
     kind, level, contrast, seed = cell
     rig = cfg.rig

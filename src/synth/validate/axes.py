@@ -140,7 +140,7 @@ def _slant(scene: Any, rig: Any, degrees: float) -> Any:
     """One textured plane through (baseline / 2, 0, 2.5 m) turned by ``degrees`` about the
     vertical axis (0 = fronto-parallel), cut to cover both views with a margin."""
     from scenes import ObjectSpec, Pose
-    from synth.texture_control import retexture
+    from synth.appearance.texture_control import retexture
 
     theta = math.radians(float(degrees))
     x0, z0 = rig.baseline / 2, 2.5

@@ -94,8 +94,8 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     from synth.dataset.config import config_from_dict
     from synth.dataset.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
     from synth.dataset.sample import render_draw
-    from synth.photometric import apply_photometric
-    from synth.texture_control import match_edge_density
+    from synth.appearance.photometric import apply_photometric
+    from synth.appearance.texture_control import match_edge_density
 
     config = config_from_dict(config_dict, source="sweep")
     draw = draw_sample(config, seed)
