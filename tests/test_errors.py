@@ -13,7 +13,7 @@ from matcher.io import PFMError
 from stereoforge import errors
 from synth.dataset.config import ConfigError
 from synth.dataset.run import DatasetError, SampleError
-from synth.export import OutputDirError
+from synth.write.export import OutputDirError
 from synth.render.renderer import GLBackendError
 from synth.jobs.study import StudyConfigError
 

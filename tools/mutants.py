@@ -175,14 +175,14 @@ MUTANTS += (
     ),
     Mutant(
         "calib vmax floored",
-        "src/synth/export.py",
+        "src/synth/write/export.py",
         (("vmax = int(math.ceil(hi))", "vmax = int(math.floor(hi))"),),
         "calib.txt vmax below the largest disparity",
         _CALIB,
     ),
     Mutant(
         "calib ndisp without the + 1",
-        "src/synth/export.py",
+        "src/synth/write/export.py",
         (("ndisp = int(16 * math.ceil((vmax + 1) / 16))", "ndisp = int(16 * math.ceil(vmax / 16))"),),
         "ndisp = vmax when vmax is a multiple of 16 (the search misses d = vmax)",
         _CALIB,
@@ -349,7 +349,7 @@ MUTANTS += (
     ),
     Mutant(
         "KITTI obj_map marks pixels without ground truth",
-        "src/synth/export.py",
+        "src/synth/write/export.py",
         (("background = ~np.isfinite(disp)", "background = np.zeros(disp.shape, bool)"),),
         "obj_map is 1 (foreground) where there is no ground truth instead of KITTI's 0",
         _EXPORT,
@@ -377,7 +377,7 @@ MUTANTS += (
     ),
     Mutant(
         "staged output folder keeps mkdtemp's 0700",
-        "src/synth/export.py",
+        "src/synth/write/export.py",
         (("os.chmod(stage, _default_dir_mode())", "os.chmod(stage, 0o700)"),),
         "render --out, demo and render --from-manifest folders are closed to other users",
         _EXPORT,

@@ -11,7 +11,7 @@ failure the project itself reports, and from the builtin exception that callers 
     +-- ConfigError (ValueError)             a configuration file (synth.dataset.config's), file:line
     |   +-- synth.jobs.study_config.StudyConfigError
     +-- DatasetError (ValueError)            a dataset directory (synth.dataset.run's) or output
-    |   +-- synth.export.OutputDirError      directory cannot be used as asked
+    |   +-- synth.OutputDirError             directory cannot be used as asked
     +-- FormatError (ValueError)             a file is truncated, corrupt or of another format
     |   +-- matcher.io.pfm.PFMError
     +-- BackendError (RuntimeError)          a rendering backend is missing or failed

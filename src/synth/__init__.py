@@ -39,8 +39,8 @@ if TYPE_CHECKING:
         run_dataset,
     )
     from synth.camera.lens import Defocus, Distortion, RigErrors
-    from synth.export import OutputDirError, write_pair
-    from synth.formats import FORMATS
+    from synth.write.export import OutputDirError, write_pair
+    from synth.write.formats import FORMATS
     from synth.pair import StereoPair, occlusion_mask, render_pair
     from synth.appearance.photometric import PhotometricPair, PhotometricParams, apply_photometric
     from synth.render import BACKENDS, GLBackendError, Renderer, ViewRender, resolve_backend
@@ -55,9 +55,9 @@ _EXPORTS = {
     "DatasetRun": "synth.dataset",
     "Defocus": "synth.camera.lens",
     "Distortion": "synth.camera.lens",
-    "FORMATS": "synth.formats",
+    "FORMATS": "synth.write.formats",
     "GLBackendError": "synth.render",
-    "OutputDirError": "synth.export",
+    "OutputDirError": "synth.write.export",
     "PhotometricPair": "synth.appearance.photometric",
     "PhotometricParams": "synth.appearance.photometric",
     "Renderer": "synth.render",
@@ -75,7 +75,7 @@ _EXPORTS = {
     "render_pair": "synth.pair",
     "resolve_backend": "synth.render",
     "run_dataset": "synth.dataset",
-    "write_pair": "synth.export",
+    "write_pair": "synth.write.export",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from matcher.io import read_flo, read_image
 from synth.camera.lens import Defocus, Distortion, RigErrors, rotation_matrix
-from synth.export import OutputDirError, write_pair
+from synth.write.export import OutputDirError, write_pair
 from synth.pair import render_pair
 from synth.render.renderer import Renderer
 from synth.camera.rig import StereoRig

@@ -1,5 +1,6 @@
-"""Optional ground truth (synth.ground_truth): rendered labels against per-object renders, normals
-of known planes, the right view's mask, the dataset option, StereoDataset and shards carrying it."""
+"""Optional ground truth (synth.write.ground_truth): rendered labels against per-object renders,
+normals of known planes, the right view's mask, the dataset option, StereoDataset and shards
+carrying it."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import scenes
 from stereoforge.errors import ConfigError, ParameterError
 from synth.dataset.config import loads_config
 from synth.dataset.run import run_dataset
-from synth.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
+from synth.write.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
                                 render_ground_truth, right_occlusion_mask, semantic_lut)
 from synth.pair import occlusion_mask, render_pair
 from synth.camera.rig import StereoRig

@@ -192,7 +192,7 @@ def test_calib_ndisp_is_above_vmax_also_on_a_multiple_of_16(top, vmax, ndisp):
     """ndisp = vmax + 1 rounded up to a multiple of 16: d = vmax must be searched."""
     from types import SimpleNamespace
 
-    from synth.export import calib_for
+    from synth.write.export import calib_for
     from synth.camera.rig import StereoRig
 
     disp = np.array([[np.inf, 3.25, top]], np.float32)

@@ -28,7 +28,7 @@ __all__ = ["dataset"]
 @engine_option
 @address_option
 @click.option("--format", "fmt", default="middlebury", show_default=True,
-              type=LazyChoice("synth.formats:DATASET_FORMATS"),
+              type=LazyChoice("synth.write.formats:DATASET_FORMATS"),
               help="Sample folders (middlebury: MiddEval3, middlebury2014: the 2014 scene "
                    "archives, kitti) or tar shards (webdataset).")
 @click.option("--shard-size", "shard_size", default=None, metavar="BYTES",

@@ -17,7 +17,7 @@ from pathlib import Path
 from synth.dataset.integrity import completion_record
 from synth.dataset.layout import record_path, sample_dir
 from synth.dataset.storage import FsPath, commit_sample, write_bytes
-from synth.formats import KITTI_ROOT
+from synth.write.formats import KITTI_ROOT
 
 __all__ = ["commit_local", "dataset_files", "record_name", "write_record", "returned_files",
            "commit_files", "commit_returned"]

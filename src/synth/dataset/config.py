@@ -117,7 +117,7 @@ class DatasetConfig:
     preview : bool
     rig : StereoRig
     ground_truth : tuple of str
-        Optional ground truth written with each sample (``synth.ground_truth.GROUND_TRUTH``;
+        Optional ground truth written with each sample (``synth.write.ground_truth.GROUND_TRUTH``;
         empty by default).
     scene, photometric : Mapping[str, Dist]
         Every key of the section (defaults filled in as fixed values; optional keys left unset

@@ -37,7 +37,8 @@ DISTORTION_KEYS = ("k1", "k2", "p1", "p2", "k3")
 #: The ``[rig]`` keys of the ideal rig (always written by
 #: :meth:`synth.dataset.config.DatasetConfig.to_dict`).
 IDEAL_RIG_KEYS = ("width", "height", "fx", "baseline", "near", "far")
-# synth.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they agree)
+# synth.write.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they
+# agree)
 GROUND_TRUTH_KINDS = ("depth", "normals", "instance", "semantic", "occlusion_right")
 OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh")
 OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
@@ -53,7 +54,8 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "count": Key("int", 10, lo=1, hi=999_999, doc="number of samples"),
         "preview": Key("bool", False, doc="also write preview.png per sample"),
         "ground_truth": Key("str", None, choices=GROUND_TRUTH_KINDS, array=True, distinct=True,
-                            doc="optional ground truth to write too (see synth.ground_truth)"),
+                            doc="optional ground truth to write too "
+                                "(see synth.write.ground_truth)"),
     },
     "rig": {
         "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),

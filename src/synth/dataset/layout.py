@@ -38,7 +38,7 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
 from synth._util.json_records import json_bytes, read_json_object
 from synth.dataset.storage import FsPath, dataset_path, write_bytes
-from synth.formats import KITTI_ROOT
+from synth.write.formats import KITTI_ROOT
 
 __all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "MIDDLEBURY_2014",
            "KITTI_TRAINING", "KITTI_SAMPLES",

@@ -26,7 +26,7 @@ from stereoforge.validation import check_choice, check_real
 from synth._util.json_records import read_json_object
 from synth.dataset.layout import KITTI_TRAINING, check_layout, sample_dir
 from synth.dataset.manifest import MODIFIED_FIX, read_manifest
-from synth.formats import FORMATS, MIDDLEBURY_LAYOUTS
+from synth.write.formats import FORMATS, MIDDLEBURY_LAYOUTS
 
 __all__ = ["StereoDataset", "SPLITS", "is_validation"]
 
@@ -60,7 +60,7 @@ def _png(path: Path) -> np.ndarray:
 
 
 def _optional_ground_truth(folder: Path) -> dict[str, np.ndarray]:
-    """The optional ground truth of a sample folder (``synth.ground_truth``), when written."""
+    """The optional ground truth of a sample folder (``synth.write.ground_truth``), when written."""
     out: dict[str, np.ndarray] = {}
     if (folder / "depth0.pfm").is_file():
         out["depth"] = read_pfm(folder / "depth0.pfm").astype(np.float32, copy=False)
@@ -107,7 +107,7 @@ class StereoDataset:
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
     - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm`` or
-      ``disp1.pfm``), and the optional ground truth of :mod:`synth.ground_truth`: ``depth``
+      ``disp1.pfm``), and the optional ground truth of :mod:`synth.write.ground_truth`: ``depth``
       ((H, W) float32 metres), ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16),
       ``semantic`` ((H, W) uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels
       hidden in the left).

@@ -60,8 +60,8 @@ from synth.dataset.sample import SampleError, SampleTask, produce_sample, render
 from synth.dataset.sampling import sample_seed
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, write_bytes
-from synth.export import staged_output_dir
-from synth.formats import DATASET_FORMATS
+from synth.write.export import staged_output_dir
+from synth.write.formats import DATASET_FORMATS
 from synth._util.progress import progress as progress_bar
 from synth.appearance.texture_control import CANNY_SETTINGS
 
@@ -364,8 +364,8 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     dataset (Middlebury: ``im0.png ...``; KITTI: ``training/image_2/NNNNNN_10.png ...``) plus
     ``scene.json`` and ``sample.json``. A non-empty ``out`` is refused unless ``overwrite``.
     The files are written into a temporary folder beside ``out`` and renamed into place when all
-    are written (:func:`synth.export.staged_output_dir`): a failure (disk full, a failed render)
-    leaves ``out`` as it was, and a rerun into it works.
+    are written (:func:`synth.write.export.staged_output_dir`): a failure (disk full, a failed
+    render) leaves ``out`` as it was, and a rerun into it works.
 
     Returns
     -------

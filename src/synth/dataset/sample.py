@@ -34,7 +34,7 @@ from synth.dataset.sampling import (
     sample_seed,
     stream,
 )
-from synth.export import write_pair
+from synth.write.export import write_pair
 from synth.appearance.photometric import apply_photometric
 from synth.appearance.texture_control import edge_density, match_edge_density
 
@@ -152,8 +152,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
                fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
                preview=config.preview, fsync=False)
-    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.ground_truth)
-        from synth.ground_truth import render_ground_truth, write_ground_truth
+    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.write.ground_truth)
+        from synth.write.ground_truth import render_ground_truth, write_ground_truth
 
         write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
                                                      renderer=renderer), fsync=False)

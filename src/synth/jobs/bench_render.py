@@ -73,7 +73,7 @@ def bench_render(
         One row per (preset, size).
     """
     from scenes import get_preset, list_presets
-    from synth.export import write_pair
+    from synth.write.export import write_pair
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
     from synth.camera.rig import StereoRig

@@ -58,7 +58,7 @@ def _load(root: Path, fmt: str, rec: dict) -> tuple:
 
     from matcher.io import GT_FILES, load_kitti_2015, read_calib, read_image, read_pfm
     from synth.dataset.layout import sample_dir
-    from synth.formats import KITTI_ROOT, MIDDLEBURY_LAYOUTS
+    from synth.write.formats import KITTI_ROOT, MIDDLEBURY_LAYOUTS
 
     index = rec["index"]
     try:
@@ -95,7 +95,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
     from synth.dataset.layout import dataset_format
-    from synth.formats import FORMATS
+    from synth.write.formats import FORMATS
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing

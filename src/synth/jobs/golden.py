@@ -26,7 +26,7 @@ same bytes) and reports what changed. Layout::
 
     golden/manifest.json              versions, GL strings, rig, seeds, cases, tolerances, sha256
     golden/README.md                  this layout and the commands
-    golden/<scene>/im0.png ... calib.txt, scene.json      (synth.export.write_pair)
+    golden/<scene>/im0.png ... calib.txt, scene.json      (synth.write.export.write_pair)
     golden/<scene>/expected/<method>-w<window>.pfm        matcher output, float32
     golden/<scene>/expected/metrics.json                  metrics + operation counts per case
 
@@ -224,7 +224,7 @@ def generate_golden(*, backend: str = "auto") -> dict[str, bytes]:
     Deterministic: the same package versions and GL renderer give the same bytes.
     """
     from scenes import get_preset
-    from synth.export import write_pair
+    from synth.write.export import write_pair
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
 

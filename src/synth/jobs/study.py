@@ -131,7 +131,7 @@ def _keep_pair(out: Path, index: int, cfg: StudyConfig, record: dict, pair: Any,
     import dataclasses
     import shutil
 
-    from synth.export import write_pair
+    from synth.write.export import write_pair
 
     from synth.dataset.layout import sample_dir
 

@@ -1,15 +1,15 @@
 """The pairs of a validation: one folder per axis x value x seed, rendered once, verified on reuse.
 
 A pair folder ``pairs/<axis>/<value>_s<seed>/`` is a Middlebury 2014 scene folder
-(:func:`synth.export.write_pair`: ``im0.png``, ``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``,
-``calib.txt``, ``scene.json``) plus the region masks ``mask_<region>.png`` (uint8, 255 = in the
-region; :func:`matcher.regions.region_masks` of the exact ground truth and the noise-free left
-image), ``sample.json`` (axis, value, seed, the seed's base scene, ``max_disparity``, drawn
-parameters, region sizes and the fingerprint of everything that determines the pair) and,
-written last, ``files.json`` (size and SHA-256 of every file). The folder is built under a
-temporary name and renamed (:func:`commit_pair_folder`, which the real scenes of
-:mod:`synth.validate.real` share), so it exists only whole; a rerun reuses it when its
-fingerprint matches and every checksum verifies (:func:`verify_pair_folder`).
+(:func:`synth.write.export.write_pair`: ``im0.png``, ``im1.png``, ``disp0GT.pfm``,
+``mask0nocc.png``, ``calib.txt``, ``scene.json``) plus the region masks ``mask_<region>.png``
+(uint8, 255 = in the region; :func:`matcher.regions.region_masks` of the exact ground truth and the
+noise-free left image), ``sample.json`` (axis, value, seed, the seed's base scene,
+``max_disparity``, drawn parameters, region sizes and the fingerprint of everything that determines
+the pair) and, written last, ``files.json`` (size and SHA-256 of every file). The folder is built
+under a temporary name and renamed (:func:`commit_pair_folder`, which the real scenes of
+:mod:`synth.validate.real` share), so it exists only whole; a rerun reuses it when its fingerprint
+matches and every checksum verifies (:func:`verify_pair_folder`).
 """
 
 from __future__ import annotations
@@ -152,7 +152,7 @@ def commit_pair_folder(out: Path, folder: str, write: Callable[[Path], None],
 def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
     """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
     from matcher.regions import region_masks
-    from synth.export import write_pair
+    from synth.write.export import write_pair
     from synth.validate.axes import get_axis
     from synth.validate.family import member_name
 

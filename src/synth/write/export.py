@@ -32,9 +32,9 @@ from scenes import PRESETS, SceneSpec, get_preset, load_scene, plane_equation, s
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_input_file
 from synth._util.json_records import json_bytes
-from synth.formats import FORMATS, KITTI_ROOT, MIDDLEBURY_LAYOUTS
+from synth.write.formats import FORMATS, KITTI_ROOT, MIDDLEBURY_LAYOUTS
 from synth.pair import StereoPair
-from synth.preview import preview_image
+from synth.write.preview import preview_image
 
 __all__ = ["FORMATS", "KITTI_ROOT", "OutputDirError", "resolve_scene", "prepare_output_dir",
            "staged_output_dir", "calib_for", "kitti_calib_for", "foreground_map", "write_pair",
@@ -365,7 +365,8 @@ def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
 
     :func:`write_pair` into a :func:`staged_output_dir`: after a failure (disk full, ...)
     ``out`` is as before, never a part of the pair's files. ``ground_truth``: the optional
-    arrays of :func:`synth.ground_truth.render_ground_truth`, written beside the Middlebury files.
+    arrays of :func:`synth.write.ground_truth.render_ground_truth`, written beside the Middlebury
+    files.
 
     Returns
     -------
@@ -376,7 +377,7 @@ def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
     with staged_output_dir(out, overwrite=overwrite) as stage:
         written = write_pair(pair, stage, scene=scene, seed=seed, fmt=fmt)
         if ground_truth:
-            from synth.ground_truth import write_ground_truth
+            from synth.write.ground_truth import write_ground_truth
 
             written += write_ground_truth(stage, ground_truth)
     return [out / p.relative_to(stage) for p in written]
