@@ -11,7 +11,7 @@ import pytest
 import stereoforge
 from matcher.io import PFMError
 from stereoforge import errors
-from synth.dataset.config import ConfigError
+from synth.dataset.config.parse import ConfigError
 from synth.dataset.run import DatasetError, SampleError
 from synth.write.export import OutputDirError
 from synth.render.renderer import GLBackendError

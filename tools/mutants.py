@@ -161,14 +161,14 @@ MUTANTS += (
     ),
     Mutant(
         "occluder texture ignores depth",
-        "src/synth/dataset/sampling.py",
+        "src/synth/dataset/config/sampling.py",
         (("frequency=f_px * rig.fx / z,", "frequency=f_px * rig.fx,"),),
         "occluder textures get f_px * fx cycles/m at any depth instead of f_px * fx / Z",
         _SAMPLING,
     ),
     Mutant(
         "occluders placed upside down",
-        "src/synth/dataset/sampling.py",
+        "src/synth/dataset/config/sampling.py",
         (("(v - rig.cy) * z / rig.fy", "(rig.cy - v) * z / rig.fy"),),
         "the drawn pixel row is mirrored (OpenCV's y axis points down)",
         _SAMPLING,
@@ -204,7 +204,7 @@ MUTANTS += (
     ),
     Mutant(
         "texture frequency statistic at the wrong depth",
-        "src/synth/dataset/sampling.py",
+        "src/synth/dataset/config/sampling.py",
         (("values = [o.texture.frequency * o.pose.translation[2] / fx",
           "values = [o.texture.frequency / fx"),),
         "manifest texture_frequency_px forgets the object's depth",
@@ -257,7 +257,7 @@ MUTANTS += (
     ),
     Mutant(
         "sample seed ignores the index",
-        "src/synth/dataset/sampling.py",
+        "src/synth/dataset/config/sampling.py",
         (("spawn_key=(int(index),)", "spawn_key=(0,)"),),
         "every sample of a dataset draws the same scene and sensor (one seed for all)",
         _SAMPLING,

@@ -8,7 +8,7 @@ failure the project itself reports, and from the builtin exception that callers 
     +-- ParameterError (ValueError)          a value out of range, not an allowed choice, ...
     |   +-- SceneError                       a scene description (dict or file) is invalid
     +-- ParameterTypeError (TypeError, ValueError)   a value of the wrong type or dtype
-    +-- ConfigError (ValueError)             a configuration file (synth.dataset.config's), file:line
+    +-- ConfigError (ValueError)             a configuration file (synth.dataset's), file:line
     |   +-- synth.jobs.study_config.StudyConfigError
     +-- DatasetError (ValueError)            a dataset directory (synth.dataset.run's) or output
     |   +-- synth.OutputDirError             directory cannot be used as asked

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from synth.dataset.compare import compare_datasets, summarize
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import (
     DatasetError,
     SampleError,
@@ -23,7 +23,7 @@ from synth.dataset.run import (
     render_from_manifest,
     run_dataset,
 )
-from synth.dataset.sampling import draw_sample, sample_seed
+from synth.dataset.config.sampling import draw_sample, sample_seed
 
 CONFIG = """\
 name = "tiny"

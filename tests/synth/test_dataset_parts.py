@@ -15,7 +15,7 @@ from click.testing import CliRunner
 
 from stereoforge.errors import DatasetError, ParameterError, ParameterTypeError
 from synth.cli import main
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.integrity import verify_dataset
 from synth.dataset.parts import RunLock
 from synth.dataset.run import read_manifest, run_dataset

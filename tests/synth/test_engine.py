@@ -97,7 +97,7 @@ _PRELOAD = """
 import os, sys, threading
 import cv2, numpy, scipy.linalg  # their BLAS thread pools start at import (fork-aware)
 libraries = len(os.listdir("/proc/self/task"))
-from synth.dataset.config import load_config
+from synth.dataset.config.parse import load_config
 from synth.dataset.sample import SampleTask
 from synth.dataset.engine import _preload
 modules = _preload(SampleTask(load_config("planes"), "/nonexistent", "middlebury", "auto"))
@@ -180,7 +180,7 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
     _require_ray(require_or_skip)
     import ray
 
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
     from synth.dataset.run import SampleError, run_dataset
 
     cfg = loads_config("seed = 2\ncount = 4\n[rig]\nwidth = 32\nheight = 24\n[scene]\n"

@@ -269,7 +269,7 @@ def test_imperfect_rig_dataset_warps_onto_itself(tmp_path) -> None:
     """The shipped ``imperfect-rig`` config (scaled to 128 x 96): each sample's right image,
     warped by its flow0.flo, is its left image on textured pixels away from depth edges."""
     from synth.dataset import run_dataset
-    from synth.dataset.config import config_from_dict, load_config
+    from synth.dataset.config.parse import config_from_dict, load_config
 
     data = load_config("imperfect-rig").to_dict()
     k = 128 / data["rig"]["width"]

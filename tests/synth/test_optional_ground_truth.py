@@ -12,7 +12,7 @@ import pytest
 
 import scenes
 from stereoforge.errors import ConfigError, ParameterError
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import run_dataset
 from synth.write.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
                                 render_ground_truth, right_occlusion_mask, semantic_lut)
@@ -23,7 +23,7 @@ RIG = StereoRig.default(64, 48)
 
 
 def test_config_kinds_are_the_library_kinds():
-    from synth.dataset import config_keys
+    from synth.dataset.config import keys as config_keys
 
     assert config_keys.GROUND_TRUTH_KINDS == GROUND_TRUTH
     assert check_ground_truth("semantic,depth") == ("depth", "semantic")

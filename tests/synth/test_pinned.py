@@ -12,9 +12,9 @@ import pytest
 
 from matcher.io import read_calib, read_image, read_pfm
 from scenes import scene_from_dict
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import read_manifest, run_dataset
-from synth.dataset.sampling import draw_sample, effective_frequency_px
+from synth.dataset.config.sampling import draw_sample, effective_frequency_px
 from synth.appearance.photometric import PhotometricParams, apply_photometric
 from synth.appearance.texture_control import edge_density
 

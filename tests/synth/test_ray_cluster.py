@@ -88,7 +88,7 @@ def config_file(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def local_runs(tmp_path_factory, renderer, config_file):
     """Local runs with 1 and 2 workers: the reference bytes."""
-    from synth.dataset.config import load_config
+    from synth.dataset.config.parse import load_config
     from synth.dataset.run import run_dataset
 
     root = tmp_path_factory.mktemp("local")
@@ -120,7 +120,7 @@ def test_workers_do_not_write_memory_urls_get_the_local_bytes(cluster, config_fi
                                                              local_runs):
     import fsspec
 
-    from synth.dataset.config import load_config
+    from synth.dataset.config.parse import load_config
     from synth.dataset.integrity import verify_dataset
     from synth.dataset.run import run_dataset
 
@@ -144,7 +144,7 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
     sample: its sample in flight is run again on the head's actor."""
     import ray
 
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
     from synth.dataset.integrity import verify_dataset
     from synth.dataset.run import run_dataset
 

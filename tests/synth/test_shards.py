@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from stereoforge.errors import DatasetError
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import read_manifest, run_dataset
 from synth.dataset.shards import FIELDS
 

@@ -66,7 +66,7 @@ def test_memory_url_has_the_folder_bytes_resumes_and_verifies(tmp_path, renderer
     import fsspec
 
     import synth
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
     from synth.dataset.integrity import verify_dataset
 
     cfg = loads_config(_CONFIG)
@@ -95,7 +95,7 @@ def test_a_sample_of_a_url_dataset_is_rendered_again_from_its_manifest(tmp_path,
 
     import synth
     from synth.cli import main
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
 
     synth.run_dataset(loads_config(_CONFIG), "memory://store-again", progress=False)
     try:

@@ -7,7 +7,7 @@ import pytest
 import scenes
 from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec
 
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import produce_sample
 from synth.camera.rig import StereoRig
 from synth.appearance.textureless import match_textureless, object_coverage

@@ -101,7 +101,7 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
                                "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
     if indices is not None:  # START:STOP -> a range, checked against the count, before any work
-        from synth.dataset.config import load_config
+        from synth.dataset.config.parse import load_config
         from synth.dataset.parts import parse_indices
 
         config = load_config(config)

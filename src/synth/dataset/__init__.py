@@ -1,7 +1,7 @@
 """Datasets: configurations, per-sample sampling, the worker engines and the resumable run.
 
-- :mod:`synth.dataset.config` — the TOML/JSON dataset configuration and its schema.
-- :mod:`synth.dataset.sampling` — what sample ``i`` draws from the configuration (seeded by ``i``).
+- :mod:`synth.dataset.config` — the TOML/JSON dataset configuration (``parse``), its schema
+  (``keys``) and what sample ``i`` draws from it, seeded by ``i`` (``sampling``).
 - :mod:`synth.dataset.engine` — local process pool (fork server) and Ray engines.
 - :mod:`synth.dataset.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
 - :mod:`synth.dataset.storage` — folders and fsspec URLs; the commit of returned samples.
@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 from synth._util.lazy import lazy_namespace
 
 if TYPE_CHECKING:
-    from synth.dataset.config import (
+    from synth.dataset.config.parse import (
         ConfigError,
         DatasetConfig,
         config_from_dict,
@@ -46,17 +46,17 @@ if TYPE_CHECKING:
 
 #: Public name -> the module that defines it.
 _EXPORTS = {
-    "ConfigError": "synth.dataset.config",
-    "DatasetConfig": "synth.dataset.config",
+    "ConfigError": "synth.dataset.config.parse",
+    "DatasetConfig": "synth.dataset.config.parse",
     "DatasetError": "synth.dataset.run",
     "DatasetRun": "synth.dataset.run",
     "ENGINES": "synth.dataset.engine",
     "SampleError": "synth.dataset.run",
     "StereoDataset": "synth.dataset.loader",
-    "config_from_dict": "synth.dataset.config",
-    "list_examples": "synth.dataset.config",
-    "load_config": "synth.dataset.config",
-    "loads_config": "synth.dataset.config",
+    "config_from_dict": "synth.dataset.config.parse",
+    "list_examples": "synth.dataset.config.parse",
+    "load_config": "synth.dataset.config.parse",
+    "loads_config": "synth.dataset.config.parse",
     "read_manifest": "synth.dataset.run",
     "render_from_manifest": "synth.dataset.run",
     "run_dataset": "synth.dataset.run",

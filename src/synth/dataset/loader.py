@@ -32,7 +32,7 @@ __all__ = ["StereoDataset", "SPLITS", "is_validation"]
 
 #: Accepted ``split`` values.
 SPLITS = ("all", "train", "val")
-_SEED_RANGE = 2**63  # sample seeds are uint64 >> 1 (synth.dataset.sampling.sample_seed)
+_SEED_RANGE = 2**63  # sample seeds are uint64 >> 1 (synth.dataset.config.sampling.sample_seed)
 
 
 def is_validation(seed: int, val_fraction: float) -> bool:

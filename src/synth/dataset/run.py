@@ -17,8 +17,8 @@ Layout of a dataset directory ``out/``::
 Guarantees (see ``docs/datasets.md``):
 
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
-  :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
-  workers, the engine or the order;
+  :func:`synth.dataset.config.sampling.sample_seed`), so its files are byte-identical whatever
+  the number of workers, the engine or the order;
 - a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to its folder (above; see
   :mod:`synth.dataset.layout`); its completion record ``records/NNNNNN.json`` (every file with
   size and SHA-256, :mod:`synth.dataset.integrity`) is written last.
@@ -48,7 +48,7 @@ from pathlib import Path
 from synth._util.json_records import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
 from synth.dataset.commit import commit_files, commit_returned
-from synth.dataset.config import DatasetConfig, config_from_dict, load_config
+from synth.dataset.config.parse import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine import check_engine, run_tasks
 from synth.dataset.integrity import sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
@@ -57,7 +57,7 @@ from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.parts import check_indices, is_part, lock_run
 from synth.dataset.ray_driver import ray_connection
 from synth.dataset.sample import SampleError, SampleTask, produce_sample, render_draw
-from synth.dataset.sampling import sample_seed
+from synth.dataset.config.sampling import sample_seed
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, write_bytes
 from synth.write.export import staged_output_dir
@@ -260,7 +260,7 @@ def run_dataset(
     SampleError
         A sample failed (its index and seed are in the message); the samples completed before
         stay, and the manifest lists them.
-    synth.dataset.config.ConfigError
+    synth.dataset.config.parse.ConfigError
         The configuration is invalid (file, line, allowed values).
 
     Examples

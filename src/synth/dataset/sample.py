@@ -22,9 +22,9 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
 from synth._util.json_records import json_bytes
 from synth.dataset.commit import commit_local, dataset_files, returned_files, write_record
-from synth.dataset.config import DatasetConfig, config_from_dict
+from synth.dataset.config.parse import DatasetConfig, config_from_dict
 from synth.dataset.integrity import completion_record
-from synth.dataset.sampling import (
+from synth.dataset.config.sampling import (
     STREAM_EXPOSURE_NOISE,
     STREAM_LIGHTING_NOISE,
     STREAM_PHOTOMETRIC,

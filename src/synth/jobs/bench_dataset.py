@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from synth.dataset.config import DatasetConfig
+    from synth.dataset.config.parse import DatasetConfig
 
 __all__ = ["bench_dataset", "profile_dataset", "check_edge_density", "resized"]
 
@@ -132,7 +132,7 @@ def bench_dataset(
     smaller. ``cold`` marks the first such run of this call (cold unless the process ran a
     multi-worker job before).
     """
-    from synth.dataset.config import load_config
+    from synth.dataset.config.parse import load_config
     from synth.dataset.engine import check_engine
 
     check_engine(engine, workers=min(workers, default=1), address=address)
@@ -206,7 +206,7 @@ def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
     >>> cfg.rig.width, cfg.rig.height, cfg.rig.fx
     (960, 540, 900.0)
     """
-    from synth.dataset.config import config_from_dict
+    from synth.dataset.config.parse import config_from_dict
 
     data = config.to_dict()
     data["rig"] = {**data["rig"], "width": int(width), "height": int(height),
@@ -263,10 +263,10 @@ def _profiler_setup(parent: int) -> None:
 
 def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None) -> dict:
     from scenes import build_meshes
-    from synth.dataset.config import load_config
+    from synth.dataset.config.parse import load_config
     from synth.dataset.engine import renderer_threads
     from synth.dataset.run import commit_returned, produce_sample
-    from synth.dataset.sampling import draw_sample
+    from synth.dataset.config.sampling import draw_sample
     from synth.render.renderer import Renderer
 
     cfg = load_config(config)

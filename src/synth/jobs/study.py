@@ -90,7 +90,7 @@ def _f(x: float | None) -> float | None:
 def _swept_sample(cfg: StudyConfig, kind: str, level: Any, contrast: float, seed: int,
                   renderer: Any) -> tuple:
     """A cell of a ``sweep_key`` study: the dataset config of the cell, its sample ``seed``."""
-    from synth.dataset.sampling import effective_frequency_px
+    from synth.dataset.config.sampling import effective_frequency_px
     from synth.validate.pairs import render_sample
 
     rig = cfg.rig
@@ -179,7 +179,8 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
         noise_seed = [seed, zlib.crc32(f"{kind}/{level!r}/{contrast!r}".encode())]
         images = apply_photometric(pair.left, pair.right,
                                    PhotometricParams(noise_sigma=cfg.noise_sigma), rng=noise_seed)
-    else:  # a dataset-config key: sample `seed` of that dataset config (synth.dataset.sampling)
+    else:  # a dataset-config key: sample `seed` of that dataset config
+        # (synth.dataset.config.sampling)
         pair, images, scene, frequency = _swept_sample(cfg, kind, level, contrast, seed, renderer)
     rho = edge_density(images.left)
     pixels = rig.width * rig.height

@@ -173,8 +173,8 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
 
 def _sweep_levels(toml: TomlSource, key: str, values: tuple) -> tuple:
     """``values`` checked as values of the dataset-config key ``key`` (ints where it takes ints)."""
-    from synth.dataset.config import SCHEMA as DATASET_SCHEMA
-    from synth.dataset.config import config_from_dict
+    from synth.dataset.config.parse import SCHEMA as DATASET_SCHEMA
+    from synth.dataset.config.parse import config_from_dict
 
     section, _, name = key.partition(".")
     keys = [f"{s}.{k}" for s in ("rig", "scene", "photometric") for k in DATASET_SCHEMA[s]

@@ -91,8 +91,8 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     """Sample ``seed`` of a dataset config (dict form), with ``scene_hook(scene, rig, value)``
     applied to its drawn scene: ``(pair, images, scene, draw)``, ``pair`` the exact render,
     ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
-    from synth.dataset.config import config_from_dict
-    from synth.dataset.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
+    from synth.dataset.config.parse import config_from_dict
+    from synth.dataset.config.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
     from synth.dataset.sample import render_draw
     from synth.appearance.photometric import apply_photometric
     from synth.appearance.texture_control import match_edge_density

@@ -1,6 +1,6 @@
 """Every key of a dataset configuration: its sections, types, defaults, bounds and docs.
 
-The schema (:data:`SCHEMA`) that :mod:`synth.dataset.config` parses and ``docs/datasets.md``
+The schema (:data:`SCHEMA`) that :mod:`synth.dataset.config.parse` parses and ``docs/datasets.md``
 documents key by key, with the value lists it refers to. Data only: no parsing here.
 """
 
@@ -35,14 +35,15 @@ def allowed_values(section: str, spec: Key) -> str:
 SCENE_TEXTURES = ("preset", "noise", "checker", "stripes", "constant")
 DISTORTION_KEYS = ("k1", "k2", "p1", "p2", "k3")
 #: The ``[rig]`` keys of the ideal rig (always written by
-#: :meth:`synth.dataset.config.DatasetConfig.to_dict`).
+#: :meth:`synth.dataset.config.parse.DatasetConfig.to_dict`).
 IDEAL_RIG_KEYS = ("width", "height", "fx", "baseline", "near", "far")
 # synth.write.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they
 # agree)
 GROUND_TRUTH_KINDS = ("depth", "normals", "instance", "semantic", "occlusion_right")
 OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh")
 OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
-#: ``[scene]`` keys drawn once per object or occluder (``synth.dataset.sampling``), not per sample.
+#: ``[scene]`` keys drawn once per object or occluder (``synth.dataset.config.sampling``), not per
+#: sample.
 PER_OBJECT_KEYS = ("occluder_mesh", "object_texture", "object_image", "object_frequency_px", "object_contrast",
                    "object_mean", "object_angle")
 

@@ -9,7 +9,7 @@ Distributions are written as a plain value (fixed), ``{uniform = [a, b]}``,
 ``{loguniform = [a, b]}`` (``a > 0``) or ``{choice = [v1, v2, ...]}``. An integer key drawn from
 ``uniform``/``loguniform`` gives integers in ``[a, b]`` (both ends included).
 
-The keys themselves (sections, types, bounds, docs) are :mod:`synth.dataset.config_keys`; this
+The keys themselves (sections, types, bounds, docs) are :mod:`synth.dataset.config.keys`; this
 module parses a file against them into a :class:`DatasetConfig` and draws its distributions.
 """
 
@@ -30,7 +30,7 @@ from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.validation import check_input_file, check_keys, describe
 from synth._util.toml_lines import TomlSource, parse_toml, read_toml_text
 from synth.camera.lens import Defocus, Distortion, RigErrors
-from synth.dataset.config_keys import (
+from synth.dataset.config.keys import (
     DIST_FORMS,
     DIST_KINDS,
     DIST_SECTIONS,

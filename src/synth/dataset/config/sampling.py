@@ -31,7 +31,7 @@ from scenes import (
 )
 from scenes.assets import load_mesh_file
 from scenes.materials import turn_lights
-from synth.dataset.config import PER_OBJECT_KEYS, DatasetConfig
+from synth.dataset.config.parse import PER_OBJECT_KEYS, DatasetConfig
 from synth.appearance.photometric import PhotometricParams
 from synth.appearance.texture_control import retexture
 
@@ -230,7 +230,7 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
 
     Examples
     --------
-    >>> from synth.dataset.config import loads_config
+    >>> from synth.dataset.config.parse import loads_config
     >>> cfg = loads_config('[scene]\\nfrequency_px = {uniform = [0.05, 0.1]}')
     >>> d = draw_sample(cfg, 3)
     >>> d == draw_sample(cfg, 3), 0.05 <= d.params["scene.frequency_px"] <= 0.1
