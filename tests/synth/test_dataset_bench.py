@@ -92,7 +92,7 @@ def test_bench_on_ray_commits_every_returned_sample_in_the_driver(tmp_path, rend
                                                                   require_or_skip,
                                                                   monkeypatch):
     from synth.dataset import run
-    from synth.dataset.engine import ray_available
+    from synth.dataset.engine.tasks import ray_available
 
     if not ray_available():
         require_or_skip("ray is not installed (optional extra: pip install ray)",

@@ -20,7 +20,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from synth.dataset.engine import ray_available
+from synth.dataset.engine.tasks import ray_available
 
 pytestmark = [pytest.mark.ray, pytest.mark.gl, pytest.mark.slow]
 

@@ -121,7 +121,7 @@ def test_a_sample_of_a_url_dataset_is_rendered_again_from_its_manifest(tmp_path,
 _PREIMPORTED = """
 import ray  # before the engine, without RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER: too late to keep 127.0.0.1
 from stereoforge.errors import BackendError
-from synth.dataset.engine import run_tasks
+from synth.dataset.engine.tasks import run_tasks
 
 class T:
     width, height, backend = 8, 8, "auto"
@@ -136,7 +136,7 @@ except BackendError as exc:
 
 
 def test_ray_imported_without_the_loopback_setting_is_refused_with_the_fix(require_or_skip):
-    from synth.dataset.engine import ray_available
+    from synth.dataset.engine.tasks import ray_available
 
     if not ray_available():
         require_or_skip("ray is not installed (optional extra: pip install ray)",

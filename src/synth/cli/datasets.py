@@ -118,11 +118,11 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
 
     with compile_notice(DATASET_KERNELS, note) as cold:
         if cold:  # compile here once, before any worker: the workers then load them from the cache
-            from synth.dataset.warm import warm_sample_kernels
+            from synth.dataset.engine.warm import warm_sample_kernels
 
             warm_sample_kernels()
     if engine == "local" and workers > 1:  # the worker server imports while this process does
-        from synth.dataset.engine import start_worker_server
+        from synth.dataset.engine.tasks import start_worker_server
 
         start_worker_server(["synth.dataset.run"])  # the task's module (the server adds its own)
     from synth.dataset import run_dataset

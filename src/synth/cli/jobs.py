@@ -46,7 +46,7 @@ def study(config, out, workers, backend, matchers, keep_pairs) -> None:
     Resumable: rerun the same command and only the missing cells are computed.
     """
     if workers > 1:  # the worker server imports while this process does
-        from synth.dataset.engine import start_worker_server
+        from synth.dataset.engine.tasks import start_worker_server
 
         start_worker_server(["synth.jobs.study"])
     from synth.jobs.study import run_study

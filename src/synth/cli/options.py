@@ -83,7 +83,7 @@ def method_option(f: Callable[..., Any]) -> Callable[..., Any]:
 def engine_option(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--engine`` (every dataset engine)."""
     return click.option("--engine", default="local", show_default=True,
-                        type=LazyChoice("synth.dataset.engine:ENGINES"))(f)
+                        type=LazyChoice("synth.dataset.engine.tasks:ENGINES"))(f)
 
 
 def address_option(f: Callable[..., Any]) -> Callable[..., Any]:

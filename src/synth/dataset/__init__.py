@@ -2,20 +2,20 @@
 
 - :mod:`synth.dataset.config` — the TOML/JSON dataset configuration (``parse``), its schema
   (``keys``) and what sample ``i`` draws from it, seeded by ``i`` (``sampling``).
-- :mod:`synth.dataset.engine` — local process pool (fork server) and Ray engines.
-- :mod:`synth.dataset.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
+- :mod:`synth.dataset.engine.tasks` — local process pool (fork server) and Ray engines.
+- :mod:`synth.dataset.engine.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
 - :mod:`synth.dataset.storage` — folders and fsspec URLs; the commit of returned samples.
 - :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
 - :mod:`synth.dataset.parts` — one dataset over several drivers: index ranges and their lock.
 - :mod:`synth.dataset.layout` — where the sample folders live; the upgrade of the previous layout.
 - :mod:`synth.dataset.compare` — two datasets file by file: content or only encoding.
 - :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
-- :mod:`synth.dataset.warm` — what a worker server runs once before forking workers.
+- :mod:`synth.dataset.engine.warm` — what a worker server runs once before forking workers.
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
   and the texture-versus-window study).
 
-Names load from their modules on first use (:mod:`synth._util.lazy`): ``synth.dataset.engine`` alone
-stays light, for the command line and the worker server.
+Names load from their modules on first use (:mod:`synth._util.lazy`):
+``synth.dataset.engine.tasks`` alone stays light, for the command line and the worker server.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
         load_config,
         loads_config,
     )
-    from synth.dataset.engine import ENGINES
+    from synth.dataset.engine.tasks import ENGINES
     from synth.dataset.loader import StereoDataset
     from synth.dataset.run import (
         DatasetError,
@@ -50,7 +50,7 @@ _EXPORTS = {
     "DatasetConfig": "synth.dataset.config.parse",
     "DatasetError": "synth.dataset.run",
     "DatasetRun": "synth.dataset.run",
-    "ENGINES": "synth.dataset.engine",
+    "ENGINES": "synth.dataset.engine.tasks",
     "SampleError": "synth.dataset.run",
     "StereoDataset": "synth.dataset.loader",
     "config_from_dict": "synth.dataset.config.parse",

@@ -49,13 +49,13 @@ from synth._util.json_records import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
 from synth.dataset.commit import commit_files, commit_returned
 from synth.dataset.config.parse import DatasetConfig, config_from_dict, load_config
-from synth.dataset.engine import check_engine, run_tasks
+from synth.dataset.engine.tasks import check_engine, run_tasks
 from synth.dataset.integrity import sample_problems
 from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
                                   sample_parent, write_scene_list)
 from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.parts import check_indices, is_part, lock_run
-from synth.dataset.ray_driver import ray_connection
+from synth.dataset.engine.ray_driver import ray_connection
 from synth.dataset.sample import SampleError, SampleTask, produce_sample, render_draw
 from synth.dataset.config.sampling import sample_seed
 from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
@@ -256,7 +256,7 @@ def run_dataset(
         or a part whose ``indices`` overlap).
     BackendError
         ``engine="ray"``: the cluster cannot be reached or joined, or no worker could start
-        (:data:`synth.dataset.ray_driver.RAY_STALL_TIMEOUT_S`); the samples finished stay.
+        (:data:`synth.dataset.engine.ray_driver.RAY_STALL_TIMEOUT_S`); the samples finished stay.
     SampleError
         A sample failed (its index and seed are in the message); the samples completed before
         stay, and the manifest lists them.

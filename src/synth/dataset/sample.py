@@ -2,7 +2,7 @@
 
 :func:`produce_sample` turns sample ``index`` of a configuration into its files in a folder
 (its bytes depend only on the configuration and ``index``); :class:`SampleTask` is the picklable
-job the engines (:mod:`synth.dataset.engine`) run on each worker, committing the sample
+job the engines (:mod:`synth.dataset.engine.tasks`) run on each worker, committing the sample
 (:mod:`synth.dataset.commit`) or returning its bytes to the driver.
 """
 
@@ -163,7 +163,7 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
 
 
 class SampleTask:
-    """Picklable per-sample job (see :mod:`synth.dataset.engine`).
+    """Picklable per-sample job (see :mod:`synth.dataset.engine.tasks`).
 
     With ``out`` a local folder the worker writes and commits the sample itself and returns its
     record. With ``out=None`` it writes nothing where the driver writes: it renders into a

@@ -126,14 +126,14 @@ def bench_dataset(
         local worker, which runs in this process), ``engine`` and ``cold`` (True for
         the first multi-worker run of this call; see below).
 
-    The first multi-worker run of a process also starts the engine's fork server (imports and
-    numba set-up, ~1.5 s, see :mod:`synth.dataset.engine`) and probes the GL backend; later runs (the
-    next configurations, or the same one listed twice) reuse both, so their ``startup_s`` is
+    The first multi-worker run of a process also starts the engine's fork server (imports and numba
+    set-up, ~1.5 s, see :mod:`synth.dataset.engine.tasks`) and probes the GL backend; later runs
+    (the next configurations, or the same one listed twice) reuse both, so their ``startup_s`` is
     smaller. ``cold`` marks the first such run of this call (cold unless the process ran a
     multi-worker job before).
     """
     from synth.dataset.config.parse import load_config
-    from synth.dataset.engine import check_engine
+    from synth.dataset.engine.tasks import check_engine
 
     check_engine(engine, workers=min(workers, default=1), address=address)
     loaded = [load_config(name) for name in configs]  # every error before the first run
@@ -142,7 +142,7 @@ def bench_dataset(
     rows: list[dict] = []
     with contextlib.ExitStack() as cluster:
         if address is not None:  # joined once: every run below uses this connection
-            from synth.dataset.ray_driver import ray_connection
+            from synth.dataset.engine.ray_driver import ray_connection
 
             cluster.enter_context(ray_connection(address))
         for cfg in loaded:
@@ -162,7 +162,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
                address: str | None, cold: bool) -> dict:
     """One run of ``count`` samples of ``cfg`` on ``w`` workers: a row of :func:`bench_dataset`
     (``efficiency`` is filled in by the caller)."""
-    from synth.dataset.engine import run_tasks
+    from synth.dataset.engine.tasks import run_tasks
     from synth.dataset.run import SampleTask, commit_files
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -219,7 +219,7 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     """Milliseconds per pair in each stage of one worker (after one warm-up sample).
 
     Measured in a fresh child process set up like one worker of a run that gives each worker
-    one core (:func:`synth.dataset.engine.configure_worker`: one OpenCV and numba thread,
+    one core (:func:`synth.dataset.engine.tasks.configure_worker`: one OpenCV and numba thread,
     tuned malloc; llvmpipe rasterizing in the calling thread), so the CPU figures are those of
     a 2-worker run on 2 cores.
 
@@ -255,7 +255,7 @@ _PASSES = ("meshes", "upload", "colour", "depth")
 
 
 def _profiler_setup(parent: int) -> None:
-    from synth.dataset.engine import configure_worker, die_with_parent
+    from synth.dataset.engine.tasks import configure_worker, die_with_parent
 
     die_with_parent(also=parent)
     configure_worker(1)
@@ -264,7 +264,7 @@ def _profiler_setup(parent: int) -> None:
 def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None) -> dict:
     from scenes import build_meshes
     from synth.dataset.config.parse import load_config
-    from synth.dataset.engine import renderer_threads
+    from synth.dataset.engine.tasks import renderer_threads
     from synth.dataset.run import commit_returned, produce_sample
     from synth.dataset.config.sampling import draw_sample
     from synth.render.renderer import Renderer

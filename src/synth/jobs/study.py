@@ -49,7 +49,7 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
 from synth._util.json_records import read_json_object
 from synth._util.progress import progress as progress_bar
-from synth.dataset.engine import run_tasks
+from synth.dataset.engine.tasks import run_tasks
 from synth.jobs.study_config import (
     StudyConfig,
     StudyConfigError,
@@ -235,7 +235,8 @@ def _compute_cell(cfg: StudyConfig, cell: tuple[str, float, float, int], rendere
 
 
 class _CellTask:
-    """Picklable per-cell job for :func:`synth.dataset.engine.run_tasks`: computes and writes a cell."""
+    """Picklable per-cell job for :func:`synth.dataset.engine.tasks.run_tasks`: computes and writes
+    a cell."""
 
     def __init__(self, cfg: StudyConfig, out: Path, cells: list, backend: str,
                  threads: int | None, keep_pairs: bool = False) -> None:

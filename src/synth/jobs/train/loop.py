@@ -119,7 +119,7 @@ def _identity_collate(batch):
 def _worker_init(_worker_id: int) -> None:
     # Ctrl-C and SIGTERM are the main process's to handle: it stops after the step in
     # progress, writes the checkpoint and shuts the workers down
-    from synth.dataset.engine import die_with_parent
+    from synth.dataset.engine.tasks import die_with_parent
 
     die_with_parent()  # a killed trainer leaves no worker behind
     signal.signal(signal.SIGINT, signal.SIG_IGN)

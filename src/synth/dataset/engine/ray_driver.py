@@ -1,5 +1,5 @@
 """The driver side of the Ray engine: importing Ray on the loopback, joining (or starting) the
-cluster, and running samples on actors with retries (:func:`synth.dataset.engine.run_tasks`
+cluster, and running samples on actors with retries (:func:`synth.dataset.engine.tasks.run_tasks`
 with ``engine="ray"``).
 
 Each actor runs one task at a time; an actor that dies (its node lost) is replaced and its

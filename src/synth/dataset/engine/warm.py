@@ -1,4 +1,4 @@
-"""Warm-up imported once by the fork server of :mod:`synth.dataset.engine` (never GL).
+"""Warm-up imported once by the fork server of :mod:`synth.dataset.engine.tasks` (never GL).
 
 Importing this module loads the serial numba kernels of a dataset sample from numba's cache
 (the occlusion mask, the noise lookup) with tiny calls; the first load also runs numba's

@@ -9,7 +9,7 @@ order sort). Engines:
   :class:`concurrent.futures.ProcessPoolExecutor` whose processes are forked by a
   ``forkserver`` (``spawn`` where there is none). The fork server is a fresh process that
   imports the task's modules (``type(task).__module__`` and the task's optional ``preload``
-  tuple of module names) and warms numba once (:mod:`synth.dataset.warm`); it never imports
+  tuple of module names) and warms numba once (:mod:`synth.dataset.engine.warm`); it never imports
   OpenGL, so no GL state is ever forked (a forked GL context is unusable), and each worker
   starts without importing numpy/scipy/trimesh/numba/OpenCV again. It is one per process
   (``multiprocessing``'s), started by the first multi-worker run and reused by the next ones;
@@ -28,9 +28,9 @@ order sort). Engines:
   Each actor runs one task at a time; an actor that dies (its node lost) is replaced and its
   sample goes back to the queue, so no sample is lost (at most ``4 * workers`` losses per run).
   On the loopback (a local Ray, or an ``address`` on ``127.*``/``localhost``) the driver's node
-  IP must stay 127.0.0.1 (see :func:`synth.dataset.ray_driver.import_ray`). The driver side of
-  Ray (its import, joining the cluster, the actor scheduling and retries) is
-  :mod:`synth.dataset.ray_driver`.
+  IP must stay 127.0.0.1 (see :func:`synth.dataset.engine.ray_driver.import_ray`). The driver
+  side of Ray (its import, joining the cluster, the actor scheduling and retries) is
+  :mod:`synth.dataset.engine.ray_driver`.
 
 The first failing task stops the run: pending tasks are cancelled and its exception is raised.
 
@@ -56,7 +56,7 @@ from concurrent.futures import (
 )
 from typing import Any, Protocol
 
-from synth.dataset.ray_driver import RAY_CONNECT_TIMEOUT_S, check_ray_address
+from synth.dataset.engine.ray_driver import RAY_CONNECT_TIMEOUT_S, check_ray_address
 
 __all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_engine", "check_ray_address",
            "configure_worker", "die_with_parent", "renderer_threads", "run_tasks",
@@ -176,8 +176,9 @@ def die_with_parent(*, also: int | None = None, watchdog: bool = True) -> bool:
 
 # --------------------------------------------------------------------------- local engine
 _WORKER: dict[str, Any] = {}
-_WARM_MODULE = "synth.dataset.warm"
-_GUARD_MODULE = "synth.dataset.guard"  # first: the server dies with its parent from the start
+_WARM_MODULE = "synth.dataset.engine.warm"
+#: imported first: the server dies with its parent from the start
+_GUARD_MODULE = "synth.dataset.engine.guard"
 
 
 def _threads_per_worker(workers: int) -> int | None:
@@ -329,7 +330,7 @@ class _RayWorker:
 
 def _run_ray(task: Task, indices: Sequence[int], workers: int,
              address: str | None) -> Iterator[tuple[int, dict]]:
-    from synth.dataset.ray_driver import ray_connection, ray_results
+    from synth.dataset.engine.ray_driver import ray_connection, ray_results
 
     with ray_connection(address, workers=workers) as ray:
         actor_cls = ray.remote(num_cpus=1, max_restarts=0)(_RayWorker)
