@@ -123,14 +123,14 @@ MUTANTS += (
     ),
     Mutant(
         "resume ignores the recorded sizes",
-        "src/synth/dataset/integrity.py",
+        "src/synth/dataset/storage/integrity.py",
         (('if size != entry["bytes"]:', 'if size != entry.get("size", size):'),),
         "the size check reads a key the record does not have: a truncated file passes",
         _DATASET,
     ),
     Mutant(
         "record forgets the KITTI images",
-        "src/synth/dataset/commit.py",
+        "src/synth/dataset/storage/commit.py",
         (('for path in sorted(p for p in tmp.rglob("*") if p.is_file()):',
           'for path in sorted(p for p in tmp.glob("*") if p.is_file()):'),),
         "the completion record lists the sample folder only, not training/image_2/ ... of KITTI",
@@ -138,7 +138,7 @@ MUTANTS += (
     ),
     Mutant(
         "verify stops at the last sample present",
-        "src/synth/dataset/integrity.py",
+        "src/synth/dataset/storage/integrity.py",
         (("for index in sorted(set(range(last + 1)) | set(present)):",
           "for index in sorted(set(present)):"),),
         "holes (missing indices) are not reported",
@@ -212,7 +212,7 @@ MUTANTS += (
     ),
     Mutant(
         "manifest CSV booleans in Python spelling",
-        "src/synth/dataset/manifest.py",
+        "src/synth/dataset/storage/manifest.py",
         (('return "true" if value else "false"', "return str(value)"),),
         "manifest.csv writes True/False instead of true/false",
         _DATASET,
@@ -363,7 +363,7 @@ MUTANTS += (
     ),
     Mutant(
         "short last shard sealed",
-        "src/synth/dataset/shards.py",
+        "src/synth/dataset/storage/shards.py",
         (("self._close(sealed=False)", "self._close(sealed=True)"),),
         "an extended webdataset run keeps the short shard and starts a new one after it",
         ("tests/synth/test_shards.py",),

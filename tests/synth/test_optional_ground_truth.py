@@ -112,7 +112,7 @@ base = {choice = ["boxes", "flying"]}
 @pytest.mark.gl
 def test_datasets_stereo_dataset_and_shards_carry_the_ground_truth(tmp_path, renderer):
     from synth import StereoDataset
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     cfg = loads_config(CONFIG)
     out = tmp_path / "mb"

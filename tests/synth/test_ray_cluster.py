@@ -121,7 +121,7 @@ def test_workers_do_not_write_memory_urls_get_the_local_bytes(cluster, config_fi
     import fsspec
 
     from synth.dataset.config.parse import load_config
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
     from synth.dataset.run import run_dataset
 
     cfg = load_config(config_file)
@@ -145,7 +145,7 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
     import ray
 
     from synth.dataset.config.parse import loads_config
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
     from synth.dataset.run import run_dataset
 
     count = 30

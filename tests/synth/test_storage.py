@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from stereoforge.errors import DatasetError
-from synth.dataset.storage import FsPath, dataset_path
+from synth.dataset.storage.fs import FsPath, dataset_path
 
 _CONFIG = ("seed = 4\ncount = 3\n[rig]\nwidth = 32\nheight = 24\n[scene]\nbase = 'flying'\n"
            "[photometric]\nnoise_sigma = 2.0\n")
@@ -67,7 +67,7 @@ def test_memory_url_has_the_folder_bytes_resumes_and_verifies(tmp_path, renderer
 
     import synth
     from synth.dataset.config.parse import loads_config
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     cfg = loads_config(_CONFIG)
     synth.run_dataset(cfg, tmp_path / "f", progress=False)  # the public entry point, out positional

@@ -34,7 +34,7 @@ __all__ = ["dataset"]
 @click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
               help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
 @click.option("--disp-encoding", "disp_encoding", default=None,
-              type=LazyChoice("synth.dataset.shards:DISP_ENCODINGS"),
+              type=LazyChoice("synth.dataset.storage.shards:DISP_ENCODINGS"),
               help="How --format webdataset stores disparities and depth: pfm, or pfm.gz "
                    "(gzip, lossless) [default: pfm].")
 @backend_option
@@ -80,7 +80,7 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
         if config is not None or out is not None or verify_dir is not None:
             raise click.UsageError("--upgrade DIR converts DIR in place: drop CONFIG, --out and "
                                    "--verify")
-        from synth.dataset.layout import upgrade_dataset
+        from synth.dataset.storage.layout import upgrade_dataset
 
         moved = upgrade_dataset(upgrade)
         click.echo(f"{upgrade}: {moved} sample folders moved; layout is current")
@@ -88,7 +88,7 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
     if verify_dir is not None:
         if config is not None:
             raise click.UsageError("--verify DIR checks an existing dataset: drop CONFIG")
-        from synth.dataset.integrity import verify_dataset
+        from synth.dataset.storage.integrity import verify_dataset
 
         problems = verify_dataset(verify_dir, count=count)
         for line in problems:
@@ -107,11 +107,11 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
         config = load_config(config)
         indices = parse_indices(indices, config.count if count is None else count, fmt=fmt)
     if shard_size is not None:  # refused with a format without shards, before any work
-        from synth.dataset.shards import check_shard_option, parse_size
+        from synth.dataset.storage.shards import check_shard_option, parse_size
 
         shard_size = check_shard_option(fmt, parse_size(shard_size))
     if disp_encoding is not None:
-        from synth.dataset.shards import check_disp_encoding
+        from synth.dataset.storage.shards import check_disp_encoding
 
         disp_encoding = check_disp_encoding(fmt, disp_encoding)
     from synth._util.kernel_cache import DATASET_KERNELS, compile_notice

@@ -1,16 +1,16 @@
 """Datasets: configurations, per-sample sampling, the worker engines and the resumable run.
 
+- :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
+- :mod:`synth.dataset.sample` — one sample: drawn, rendered, degraded, written; the per-sample task.
+- :mod:`synth.dataset.parts` — one dataset over several drivers: index ranges and their lock.
+- :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
+- :mod:`synth.dataset.compare` — two datasets file by file: content or only encoding.
 - :mod:`synth.dataset.config` — the TOML/JSON dataset configuration (``parse``), its schema
   (``keys``) and what sample ``i`` draws from it, seeded by ``i`` (``sampling``).
-- :mod:`synth.dataset.engine.tasks` — local process pool (fork server) and Ray engines.
-- :mod:`synth.dataset.engine.ray_driver` — the Ray driver: Ray on the loopback, actors, retries.
-- :mod:`synth.dataset.storage` — folders and fsspec URLs; the commit of returned samples.
-- :mod:`synth.dataset.run` — :func:`run_dataset`, resume, manifests, :func:`render_from_manifest`.
-- :mod:`synth.dataset.parts` — one dataset over several drivers: index ranges and their lock.
-- :mod:`synth.dataset.layout` — where the sample folders live; the upgrade of the previous layout.
-- :mod:`synth.dataset.compare` — two datasets file by file: content or only encoding.
-- :mod:`synth.dataset.loader` — :class:`StereoDataset`, a dataset directory as a training dataset.
-- :mod:`synth.dataset.engine.warm` — what a worker server runs once before forking workers.
+- :mod:`synth.dataset.engine` — the local process pool (fork server) and Ray engines (``tasks``),
+  the Ray driver, the fork server's guard and warm-up.
+- :mod:`synth.dataset.storage` — folders and fsspec URLs (``fs``), where the sample folders live
+  (``layout``), the commit of a sample, completion records (``integrity``), manifests, shards.
 - ``configs/`` — the shipped example configurations (``planes``, ``texture-sweep``, ``flying``,
   and the texture-versus-window study).
 

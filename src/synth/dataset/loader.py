@@ -24,8 +24,8 @@ from matcher.io import load_kitti_2015, load_middlebury_2014, read_pfm
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_choice, check_real
 from synth._util.json_records import read_json_object
-from synth.dataset.layout import KITTI_TRAINING, check_layout, sample_dir
-from synth.dataset.manifest import MODIFIED_FIX, read_manifest
+from synth.dataset.storage.layout import KITTI_TRAINING, check_layout, sample_dir
+from synth.dataset.storage.manifest import MODIFIED_FIX, read_manifest
 from synth.write.formats import FORMATS, MIDDLEBURY_LAYOUTS
 
 __all__ = ["StereoDataset", "SPLITS", "is_validation"]

@@ -20,8 +20,8 @@ Guarantees (see ``docs/datasets.md``):
   :func:`synth.dataset.config.sampling.sample_seed`), so its files are byte-identical whatever
   the number of workers, the engine or the order;
 - a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to its folder (above; see
-  :mod:`synth.dataset.layout`); its completion record ``records/NNNNNN.json`` (every file with
-  size and SHA-256, :mod:`synth.dataset.integrity`) is written last.
+  :mod:`synth.dataset.storage.layout`); its completion record ``records/NNNNNN.json`` (every
+  file with size and SHA-256, :mod:`synth.dataset.storage.integrity`) is written last.
   A run killed at any point and restarted skips the samples whose record exists and whose files
   have the recorded sizes, renders the others again (an emptied folder, a truncated file) and
   ends with the same bytes as an uninterrupted run;
@@ -34,7 +34,7 @@ Guarantees (see ``docs/datasets.md``):
 
 The run, its resume and its manifests live here; one sample's production and the per-sample task
 are :mod:`synth.dataset.sample`, the commit of a rendered sample (rename, completion record,
-returned bytes) :mod:`synth.dataset.commit`.
+returned bytes) :mod:`synth.dataset.storage.commit`.
 """
 
 from __future__ import annotations
@@ -47,26 +47,27 @@ from pathlib import Path
 
 from synth._util.json_records import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
-from synth.dataset.commit import commit_files, commit_returned
+from synth.dataset.storage.commit import commit_files, commit_returned
 from synth.dataset.config.parse import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine.tasks import check_engine, run_tasks
-from synth.dataset.integrity import sample_problems
-from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
-                                  sample_parent, write_scene_list)
-from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
+from synth.dataset.storage.integrity import sample_problems
+from synth.dataset.storage.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
+                                          sample_parent, write_scene_list)
+from synth.dataset.storage.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.parts import check_indices, is_part, lock_run
 from synth.dataset.engine.ray_driver import ray_connection
 from synth.dataset.sample import SampleError, SampleTask, produce_sample, render_draw
 from synth.dataset.config.sampling import sample_seed
-from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
-from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, write_bytes
+from synth.dataset.storage.shards import ShardWriter, check_disp_encoding, check_shard_option
+from synth.dataset.storage.fs import FsPath, dataset_path, is_local, remove_tree, write_bytes
 from synth.write.export import staged_output_dir
 from synth.write.formats import DATASET_FORMATS
 from synth._util.progress import progress as progress_bar
 from synth.appearance.texture_control import CANNY_SETTINGS
 
 # SampleError, SampleTask, produce_sample, render_draw (synth.dataset.sample) and the commit
-# functions (synth.dataset.commit) are re-exported: the run's public surface stays in one place
+# functions (synth.dataset.storage.commit) are re-exported: the run's public surface stays in one
+# place
 __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_sample", "run_dataset",
            "render_from_manifest", "read_manifest", "render_draw", "commit_files",
            "commit_returned"]
@@ -84,7 +85,7 @@ class DatasetRun:
 
     Attributes
     ----------
-    out : Path or synth.dataset.storage.FsPath
+    out : Path or synth.dataset.storage.fs.FsPath
         The dataset's folder, or its location on an fsspec filesystem.
     count : int
         Samples the dataset holds (``0 .. count - 1``).
@@ -97,8 +98,9 @@ class DatasetRun:
     damaged : tuple of (int, tuple of str)
         The rendered samples that were there but damaged or incomplete (a truncated or missing
         file, an emptied folder, no or an unreadable completion record), in index order, each
-        with what was wrong: one line a file (:func:`synth.dataset.integrity.sample_problems`),
-        or one for an emptied folder. Samples never rendered before are not in it.
+        with what was wrong: one line a file
+        (:func:`synth.dataset.storage.integrity.sample_problems`), or one for an emptied folder.
+        Samples never rendered before are not in it.
     """
 
     out: Path | FsPath
@@ -214,7 +216,7 @@ def run_dataset(
         Dataset directory: new, empty, or holding a (partial) dataset of the same config and
         format, which is completed. A local path, a ``file://`` URL or any fsspec URL
         (``memory://``, ``s3://bucket/prefix`` with s3fs, ``gs://`` with gcsfs: needs
-        ``pip install 'stereoforge[storage]'``; see :mod:`synth.dataset.storage`).
+        ``pip install 'stereoforge[storage]'``; see :mod:`synth.dataset.storage.fs`).
     count : int, optional
         Samples ``0 .. count - 1`` (default: the config's ``count``).
     workers : int
@@ -227,8 +229,9 @@ def run_dataset(
         (and an existing dataset as it was).
     fmt : {"middlebury", "middlebury2014", "kitti", "webdataset"}
         ``middlebury``: MiddEval3 scene folders, ``middlebury2014``: the 2014 scene archives'
-        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames (:mod:`synth.dataset.layout`);
-        ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
+        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames
+        (:mod:`synth.dataset.storage.layout`); ``webdataset``: tar shards
+        (:mod:`synth.dataset.storage.shards`).
     progress : bool
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}

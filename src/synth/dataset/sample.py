@@ -3,7 +3,7 @@
 :func:`produce_sample` turns sample ``index`` of a configuration into its files in a folder
 (its bytes depend only on the configuration and ``index``); :class:`SampleTask` is the picklable
 job the engines (:mod:`synth.dataset.engine.tasks`) run on each worker, committing the sample
-(:mod:`synth.dataset.commit`) or returning its bytes to the driver.
+(:mod:`synth.dataset.storage.commit`) or returning its bytes to the driver.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ import numpy as np
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
 from synth._util.json_records import json_bytes
-from synth.dataset.commit import commit_local, dataset_files, returned_files, write_record
+from synth.dataset.storage.commit import commit_local, dataset_files, returned_files, write_record
 from synth.dataset.config.parse import DatasetConfig, config_from_dict
-from synth.dataset.integrity import completion_record
+from synth.dataset.storage.integrity import completion_record
 from synth.dataset.config.sampling import (
     STREAM_EXPOSURE_NOISE,
     STREAM_LIGHTING_NOISE,
@@ -169,7 +169,7 @@ class SampleTask:
     record. With ``out=None`` it writes nothing where the driver writes: it renders into a
     temporary folder of its own machine and returns ``(record, files)``, ``files`` mapping each
     path in the dataset (the completion record included) to its bytes, for the driver to
-    :func:`~synth.dataset.storage.commit_sample` (Ray workers, URL outputs: no shared
+    :func:`~synth.dataset.storage.fs.commit_sample` (Ray workers, URL outputs: no shared
     filesystem assumed).
     """
 

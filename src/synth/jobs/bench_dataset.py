@@ -232,7 +232,7 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     read-back), ``depth`` (the float depth passes); and ``texture``, the texture synthesis alone
     (measured apart). Not in ``total``: ``commit``, what the driver spends per pair on the Ray
     engine or a URL output (the completion record, reading the files back as the worker returns
-    them, and :func:`~synth.dataset.storage.commit_sample` into a local folder; an object store
+    them, and :func:`~synth.dataset.storage.fs.commit_sample` into a local folder; an object store
     adds its upload time). ``size``: render at ``(W, H)`` instead.
 
     Returns

@@ -118,7 +118,7 @@ def _user_matcher(spec: str) -> Any:
 
 
 def _kept(out: Path, index: int) -> Path:
-    from synth.dataset.layout import sample_dir
+    from synth.dataset.storage.layout import sample_dir
 
     return sample_dir(out / "pairs", "middlebury", index)
 
@@ -127,13 +127,13 @@ def _keep_pair(out: Path, index: int, cfg: StudyConfig, record: dict, pair: Any,
                scene: Any, seed: int) -> None:
     """Write the cell's pair (as the matchers saw it) to ``out/pairs/MiddEval3/trainingF/NNNNNN``
     (a dataset's layout) atomically, with a ``sample.json`` that
-    :func:`synth.dataset.manifest.read_manifest` reads."""
+    :func:`synth.dataset.storage.manifest.read_manifest` reads."""
     import dataclasses
     import shutil
 
     from synth.write.export import write_pair
 
-    from synth.dataset.layout import sample_dir
+    from synth.dataset.storage.layout import sample_dir
 
     final = sample_dir(out / "pairs", "middlebury", index)
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"

@@ -124,7 +124,7 @@ def commit_pair_folder(out: Path, folder: str, write: Callable[[Path], None],
     """
     from matcher.io import atomic_write_bytes, encode_png
     from matcher.regions import REGIONS
-    from synth.dataset.integrity import completion_record
+    from synth.dataset.storage.integrity import completion_record
 
     final = out / folder
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
@@ -180,7 +180,7 @@ def record_digest(folder: Path) -> str:
 def folder_digest(folder: Path) -> str | None:
     """SHA-256 of a pair folder's ``files.json`` when every file of the folder verifies
     against it (the same names, sizes and SHA-256); None otherwise."""
-    from synth.dataset.integrity import completion_record
+    from synth.dataset.storage.integrity import completion_record
 
     try:
         stored = (folder / RECORD).read_bytes()

@@ -1,11 +1,11 @@
 """Completion records of dataset samples, and the check of a whole dataset against them.
 
-A sample is complete when its record ``records/NNNNNN.json`` exists and every file it lists has
-the listed size (and, when checked, SHA-256). The record is written last, once the sample's
-temporary directory has been renamed into place: it never lists a file that was not fully
-written. It sits outside the folders the stereo tools read (:mod:`synth.dataset.layout`). Paths
-in a record are relative to the dataset directory (``MiddEval3/trainingF/000003/im0.png``; the
-KITTI layout: ``training/image_2/000003_10.png``, ``training/samples/000003/scene.json``)::
+A sample is complete when its record ``records/NNNNNN.json`` exists and every file it lists has the
+listed size (and, when checked, SHA-256). The record is written last, once the sample's temporary
+directory has been renamed into place: it never lists a file that was not fully written. It sits
+outside the folders the stereo tools read (:mod:`synth.dataset.storage.layout`). Paths in a record
+are relative to the dataset directory (``MiddEval3/trainingF/000003/im0.png``; the KITTI layout:
+``training/image_2/000003_10.png``, ``training/samples/000003/scene.json``)::
 
     {"files": {"MiddEval3/trainingF/000003/calib.txt": {"bytes": 190, "sha256": "9f1c..."}, ...},
      "index": 3}
@@ -24,12 +24,12 @@ from pathlib import Path
 
 from stereoforge.errors import DatasetError
 from synth._util.json_records import json_bytes
-from synth.dataset.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
-                                  check_layout, dataset_format, record_path, sample_dir,
-                                  sample_parent, tools_root)
-from synth.dataset.manifest import manifest_bytes, read_manifest
-from synth.dataset.shards import read_index, sha256
-from synth.dataset.storage import dataset_path
+from synth.dataset.storage.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
+                                          check_layout, dataset_format, record_path, sample_dir,
+                                          sample_parent, tools_root)
+from synth.dataset.storage.manifest import manifest_bytes, read_manifest
+from synth.dataset.storage.shards import read_index, sha256
+from synth.dataset.storage.fs import dataset_path
 
 __all__ = ["completion_record", "sample_problems", "verify_dataset"]
 
@@ -122,7 +122,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
     >>> verify_dataset(tempfile.mkdtemp())[0]
     '...: no dataset.json; not a dataset directory (made by run_dataset)'
     """
-    root = dataset_path(dataset_dir)  # a folder or an fsspec URL (synth.dataset.storage)
+    root = dataset_path(dataset_dir)  # a folder or an fsspec URL (synth.dataset.storage.fs)
     if not (root / "dataset.json").is_file():
         return [f"{root}: no dataset.json; not a dataset directory (made by run_dataset)"]
     check_layout(root)  # the previous layout: one error naming `stereoforge dataset --upgrade`

@@ -8,7 +8,7 @@ Layout::
       shard-000000.tar        000000.left.png 000000.right.png 000000.disp.pfm ...
       shard-000001.tar        ...
       .staging/NNNNNN/        samples rendered, not yet in a complete shard
-      records/NNNNNN.json     completion records of the staged samples (synth.dataset.integrity)
+      records/NNNNNN.json     completion records of the staged samples (storage.integrity)
 
 Each sample is the Middlebury scene folder renamed to WebDataset fields (key ``NNNNNN``, the
 sample index): ``left.png`` (im0), ``right.png`` (im1), ``disp.pfm`` (disp0GT), ``disp_right.pfm``
@@ -41,7 +41,7 @@ from collections.abc import Callable
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, ParameterError
 from synth._util.json_records import read_json_object
-from synth.dataset.storage import FsPath, dataset_path
+from synth.dataset.storage.fs import FsPath, dataset_path
 
 __all__ = ["DEFAULT_SHARD_SIZE", "DISP_ENCODINGS", "FIELDS", "INDEX", "check_disp_encoding",
            "encode_member", "parse_size", "check_shard_option", "read_index",

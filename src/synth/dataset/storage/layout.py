@@ -4,7 +4,7 @@ Layout 2 (this version)::
 
     out/
       dataset.json  manifest.jsonl  manifest.csv  .lock      stereoforge's own files
-      records/000000.json         completion record of sample 0 (synth.dataset.integrity)
+      records/000000.json         completion record of sample 0 (synth.dataset.storage.integrity)
       MiddEval3/                                              fmt="middlebury"
         official_train.txt        every complete sample's name, one a line
         trainingF/000000/         im0.png im1.png disp0GT.pfm ... scene.json sample.json
@@ -37,7 +37,7 @@ from pathlib import Path
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
 from synth._util.json_records import json_bytes, read_json_object
-from synth.dataset.storage import FsPath, dataset_path, write_bytes
+from synth.dataset.storage.fs import FsPath, dataset_path, write_bytes
 from synth.write.formats import KITTI_ROOT
 
 __all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "MIDDLEBURY_2014",
@@ -67,7 +67,7 @@ SAMPLE_DIR = re.compile(r"^\d{6}$")
 METADATA = ("dataset.json", "manifest.jsonl", "manifest.csv", ".lock", "shards.json")
 _SAMPLE_NAME = SAMPLE_DIR
 _LEGACY_RECORD = "files.json"
-#: Samples of a ``webdataset`` dataset not yet in a complete shard (:mod:`synth.dataset.shards`).
+#: Samples of a ``webdataset`` dataset not yet in a complete shard (:mod:`synth.dataset.storage.shards`).
 STAGING = ".staging"
 _PARENTS = {"middlebury": MIDDEVAL_SCENES, "middlebury2014": MIDDLEBURY_2014,
             "kitti": KITTI_SAMPLES, "webdataset": STAGING}

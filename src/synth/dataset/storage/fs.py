@@ -5,10 +5,11 @@
 - a local path or a ``file://`` URL -> :class:`pathlib.Path` (everything as before: temporary
   sample folders renamed into place, byte-range locks on ``.lock``: :mod:`synth.dataset.parts`);
 - any other URL -> :class:`FsPath`, a small :class:`~pathlib.Path`-like view of one location of
-  an fsspec filesystem, with just the methods the dataset code calls (``/``, ``name``,
-  ``is_dir``, ``is_file``, ``exists``, ``iterdir``, ``rglob``, ``stat``, ``read_bytes``,
-  ``open``, ``relative_to``, ``stem``, ``suffix``, ``unlink``, ``read_text``, ``mkdir``). The resume and verify code of
-  :mod:`synth.dataset.integrity` and :mod:`synth.dataset.manifest` run unchanged on it.
+  an fsspec filesystem, with just the methods the dataset code calls (``/``, ``name``, ``is_dir``,
+  ``is_file``, ``exists``, ``iterdir``, ``rglob``, ``stat``, ``read_bytes``, ``open``,
+  ``relative_to``, ``stem``, ``suffix``, ``unlink``, ``read_text``, ``mkdir``). The resume and
+  verify code of :mod:`synth.dataset.storage.integrity` and :mod:`synth.dataset.storage.manifest`
+  run unchanged on it.
 
 fsspec is optional (``pip install 'stereoforge[storage]'``); a URL whose filesystem package is
 missing (``s3://`` without ``s3fs``) raises :class:`~stereoforge.errors.DatasetError` naming the

@@ -2,10 +2,10 @@
 
 A sample is produced into a temporary folder (:func:`synth.dataset.sample.produce_sample`);
 :func:`commit_local` renames it into place (the completion marker of a folder), and its
-completion record ``records/NNNNNN.json`` (:mod:`synth.dataset.integrity`) is written last.
+completion record ``records/NNNNNN.json`` (:mod:`synth.dataset.storage.integrity`) is written last.
 Where the worker cannot write the output (Ray actors, fsspec URLs) it returns the files as bytes
 (:func:`returned_files`) and the driver commits them (:func:`commit_files`, through
-:func:`synth.dataset.storage.commit_sample`).
+:func:`synth.dataset.storage.fs.commit_sample`).
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ import os
 import shutil
 from pathlib import Path
 
-from synth.dataset.integrity import completion_record
-from synth.dataset.layout import record_path, sample_dir
-from synth.dataset.storage import FsPath, commit_sample, write_bytes
+from synth.dataset.storage.integrity import completion_record
+from synth.dataset.storage.layout import record_path, sample_dir
+from synth.dataset.storage.fs import FsPath, commit_sample, write_bytes
 from synth.write.formats import KITTI_ROOT
 
 __all__ = ["commit_local", "dataset_files", "record_name", "write_record", "returned_files",

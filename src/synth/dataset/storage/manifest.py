@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from synth._util.json_records import read_json_object
-from synth.dataset.layout import SAMPLE_DIR, sample_dirs
-from synth.dataset.shards import packed_records
+from synth.dataset.storage.layout import SAMPLE_DIR, sample_dirs
+from synth.dataset.storage.shards import packed_records
 
 __all__ = ["MODIFIED_FIX", "SAMPLE_DIR", "read_manifest", "manifest_bytes"]
 
