@@ -92,7 +92,7 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
         wall = float(wall_file.read_text()) if wall_file.is_file() else None
         say(f"  {model.name}: reused" + (f" (wall {wall:.0f} s)" if wall is not None else ""))
         return {"model": str(model), "wall_s": wall, "reused": True}
-    boot = ("from synth.dataset.engine import die_with_parent; die_with_parent(); "
+    boot = ("from synth.dataset.engine.tasks import die_with_parent; die_with_parent(); "
             "from synth.cli import main; main()")
     cmd = [sys.executable, "-c", boot, "train", *sources,
            "--out", str(model), "--minutes", f"{minutes:g}", "--seed", str(seed),
