@@ -80,7 +80,8 @@ def test_matcher_and_scenes_import_without_synth_or_gl():
 def test_nothing_but_the_learning_modules_loads_torch():
     """torch is an optional extra: the library, the CLI and every non-learning job load without it."""
     statement = ("import matcher, matcher.io, matcher.adapters, scenes, synth, synth.cli, "
-                 "synth.dataset.run, synth.validate.run, synth.jobs.study, synth.jobs.bench_match; "
+                 "synth.dataset.run, synth.validate.run, synth.jobs.study.run, "
+                 "synth.jobs.bench.match, synth.jobs.bench.transfer; "
                  "matcher.resolve_matcher('ct:9')")
     assert _loaded_after(statement, ("torch",)) == []
 

@@ -9,7 +9,7 @@ failure the project itself reports, and from the builtin exception that callers 
     |   +-- SceneError                       a scene description (dict or file) is invalid
     +-- ParameterTypeError (TypeError, ValueError)   a value of the wrong type or dtype
     +-- ConfigError (ValueError)             a configuration file (synth.dataset's), file:line
-    |   +-- synth.jobs.study_config.StudyConfigError
+    |   +-- synth.jobs.study.config.StudyConfigError
     +-- DatasetError (ValueError)            a dataset directory (synth.dataset.run's) or output
     |   +-- synth.OutputDirError             directory cannot be used as asked
     +-- FormatError (ValueError)             a file is truncated, corrupt or of another format

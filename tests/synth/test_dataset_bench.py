@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from synth.jobs.bench_dataset import (
+from synth.jobs.bench.dataset import (
     _cpu_seconds,
     _steady_cpu_per_pair,
     bench_dataset,
@@ -148,7 +148,7 @@ def test_bench_dataset_cli_rejects_bad_options(tmp_path, args, message):
 
 def test_resized_keeps_the_field_of_view():
     from synth.dataset import load_config
-    from synth.jobs.bench_dataset import resized
+    from synth.jobs.bench.dataset import resized
 
     cfg = load_config("flying")
     big = resized(cfg, 960, 540)

@@ -205,7 +205,7 @@ def test_bench_dataset_measures_a_cluster_at_its_address(cluster, config_file):
     process commits what they return (its CPU per pair is the driver's)."""
     import ray
 
-    from synth.jobs.bench_dataset import bench_dataset
+    from synth.jobs.bench.dataset import bench_dataset
 
     rows = bench_dataset(configs=(str(config_file),), count=4, workers=(1, 2), engine="ray",
                          address=cluster.address)

@@ -1,7 +1,7 @@
 """Benchmark jobs and their tables (``stereoforge bench ...``).
 
 Tables are printed and written as Markdown and CSV (atomically), the Markdown headed by the machine
-they ran on (:mod:`synth.jobs.machine`). Speed targets live here, never in
+they ran on (:mod:`synth.jobs.bench.machine`). Speed targets live here, never in
 timed unit tests.
 """
 
@@ -19,7 +19,7 @@ from pathlib import Path
 
 
 from synth._util.progress import progress as progress_bar
-from synth.jobs.machine import MachineInfo, describe_machine
+from synth.jobs.bench.machine import MachineInfo, describe_machine
 
 __all__ = ["parse_sizes", "bench_render", "format_markdown", "write_table"]
 

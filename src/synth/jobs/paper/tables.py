@@ -27,7 +27,7 @@ from matcher.edges import canny_edges
 from matcher.io import atomic_write_bytes, load_middlebury_2005, save_figure_atomic
 from matcher.match import match
 from matcher.metrics import evaluate
-from synth.jobs.paper_figures import PAPER_COLUMNS, fig_colour_maps, fig_pobmp_window, table1_with_paper
+from synth.jobs.paper.figures import PAPER_COLUMNS, fig_colour_maps, fig_pobmp_window, table1_with_paper
 from synth._util.progress import progress as progress_bar
 
 __all__ = ["PAPER_SCENES", "PAPER_TABLE1", "PAPER_TABLE2", "PAPER_TABLE3", "SIZES", "run_paper"]
@@ -271,7 +271,7 @@ def run_paper(
     out : path-like
         Output folder (created). Files: ``table1.csv`` (scene, window, method in {ct, cthw},
         pobmp, rms, then the paper's PoBMP and ours minus it, empty where the paper has none:
-        :func:`synth.jobs.paper_figures.table1_with_paper`), ``table2.csv`` (scene, max_window, method in {ct, awct}, pobmp, rms, ops,
+        :func:`synth.jobs.paper.figures.table1_with_paper`), ``table2.csv`` (scene, max_window, method in {ct, awct}, pobmp, rms, ops,
         reduction_ratio), ``table3.csv`` (the same for sct, awsct), ``report.md``,
         ``disparity_<scene>.png`` (Fig. 8), ``largest_<scene>.png`` (Figs. 9-14),
         ``rms_<scene>.png`` (Figs. 15-20), ``pobmp_window_<scene>.png`` (PoBMP against the

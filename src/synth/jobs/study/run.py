@@ -50,14 +50,14 @@ from stereoforge.errors import StereoforgeError
 from synth._util.json_records import read_json_object
 from synth._util.progress import progress as progress_bar
 from synth.dataset.engine.tasks import run_tasks
-from synth.jobs.study_config import (
+from synth.jobs.study.config import (
     StudyConfig,
     StudyConfigError,
     list_studies,
     load_study_config,
     loads_study_config,
 )
-from synth.jobs.study_report import summarize, write_plots
+from synth.jobs.study.report import summarize, write_plots
 
 __all__ = ["StudyConfig", "StudyConfigError", "COLUMNS", "load_study_config",
            "loads_study_config", "list_studies", "run_study", "summarize"]

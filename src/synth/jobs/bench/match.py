@@ -204,16 +204,16 @@ def bench_match_isas(isa: str = "native", *, sizes: Sequence[tuple[int, int, int
     """:func:`bench_match` rows with an ``isa`` column: this CPU's build, and an AVX2-only one.
 
     ``isa="avx2"`` runs the same benchmark again in a fresh process whose numba target is an
-    AVX2-only CPU (:data:`synth.jobs.machine.AVX2_TARGET`: many users' CPUs have no AVX-512, and
-    the Hamming kernels compile to ``vpopcntq`` where it exists); its ratios are to OpenCV in that
-    same process. ``isa="native"`` runs this process's build only.
+    AVX2-only CPU (:data:`synth.jobs.bench.machine.AVX2_TARGET`: many users' CPUs have no
+    AVX-512, and the Hamming kernels compile to ``vpopcntq`` where it exists); its ratios are to
+    OpenCV in that same process. ``isa="native"`` runs this process's build only.
     """
     import json
     import os
     import subprocess
     import sys
 
-    from synth.jobs.machine import AVX2_TARGET, describe_machine
+    from synth.jobs.bench.machine import AVX2_TARGET, describe_machine
 
     if isa not in ISAS:
         raise ValueError(f"isa must be one of {', '.join(ISAS)}, got {isa!r}")
@@ -222,8 +222,8 @@ def bench_match_isas(isa: str = "native", *, sizes: Sequence[tuple[int, int, int
             for r in bench_match(sizes=sizes, repeats=repeats, rng=rng, matchers=matchers)]
     if isa == "avx2":
         code = ("import json, sys; from dataclasses import asdict\n"
-                "from synth.jobs.bench_match import bench_match\n"
-                "from synth.jobs.machine import describe_machine\n"
+                "from synth.jobs.bench.match import bench_match\n"
+                "from synth.jobs.bench.machine import describe_machine\n"
                 f"rows = bench_match(sizes={tuple(map(tuple, sizes))!r}, repeats={repeats}, "
                 f"rng={rng}, matchers={tuple(matchers)!r})\n"
                 "print(json.dumps([describe_machine(backend=None).numba_target,"

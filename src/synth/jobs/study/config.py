@@ -1,5 +1,5 @@
-"""Configuration of the texture-versus-window study (:mod:`synth.jobs.study`): TOML in, validated
-:class:`StudyConfig` out, errors with the file and line (:class:`StudyConfigError`)."""
+"""Configuration of the texture-versus-window study (:mod:`synth.jobs.study.run`): TOML in,
+validated :class:`StudyConfig` out, errors with the file and line (:class:`StudyConfigError`)."""
 
 from __future__ import annotations
 
@@ -119,7 +119,7 @@ def loads_study_config(text: str, *, source: str = "<string>") -> StudyConfig:
     >>> loads_study_config("[match]\\nwindows = [5, 8]\\n", source="s.toml")
     Traceback (most recent call last):
     ...
-    synth.jobs.study_config.StudyConfigError: s.toml:2: match.windows[1]: expected an odd integer in [3, 255], got 8
+    synth.jobs.study.config.StudyConfigError: s.toml:2: match.windows[1]: expected an odd integer in [3, 255], got 8
     """
     data = parse_toml(text, source, StudyConfigError)
     toml = TomlSource(text, source, StudyConfigError)

@@ -1,4 +1,4 @@
-"""``summary.md`` and the figures of a texture-versus-window study (:mod:`synth.jobs.study`)."""
+"""``summary.md`` and the figures of a texture-versus-window study (:mod:`synth.jobs.study.run`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from matcher.io import save_figure_atomic
-from synth.jobs.study_config import StudyConfig
+from synth.jobs.study.config import StudyConfig
 
 __all__ = ["summarize", "write_plots"]
 

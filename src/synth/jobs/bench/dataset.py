@@ -1,6 +1,6 @@
 """Dataset throughput (``stereoforge bench dataset``) and the edge density check.
 
-Three measurements, all returning table rows (print them with :func:`synth.jobs.bench_render.write_table`):
+Three measurements, all returning table rows (print them with :func:`synth.jobs.bench.render.write_table`):
 
 - :func:`bench_dataset`: pairs per second of the dataset job (the per-sample task of
   :func:`synth.dataset.run_dataset` on its engine: drawing, rendering, photometric models,
