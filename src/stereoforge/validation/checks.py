@@ -1,34 +1,9 @@
-"""One way to check input: small validators with one message format.
+"""The message format of every check, and the checks of scalars, choices, sequences, keys, text
+and input files (:mod:`stereoforge.validation` re-exports them).
 
-Every check takes the value and the parameter's name (and optionally ``where``: a ``file:line``,
-a configuration key path or an object such as ``objects[2]``), returns the value converted to a
-plain Python or numpy type, and on bad input raises :class:`~stereoforge.errors.ParameterError`
-(a ``ValueError``) or, for a wrong type or dtype, :class:`~stereoforge.errors.ParameterTypeError`
-(a ``TypeError``) whose message reads::
-
-    [<where>: ]<name>: expected <what is allowed>, got <what was given>[; <the fix>]
-
-:func:`fail` builds that message for checks of one's own (a relation between two parameters,
-say), so every error reads the same. :mod:`stereoforge.schema` builds on these to describe and
-check a whole table of settings (the dataset and study configurations).
-
-One idea, one module: the checks and their message format; most of its length is the doctests
+:func:`fail` builds the message ``[<where>: ]<name>: expected <what>, got <what was given>[; fix]``;
+:func:`short_repr` and :func:`describe` write the ``got`` part. Most of the length is the doctests
 that show each message.
-
-Examples
---------
->>> check_real(0.5, "contrast", lo=0.0, hi=1.0)
-0.5
->>> check_int(4, "window", lo=3, odd=True)
-Traceback (most recent call last):
-...
-stereoforge.errors.ParameterError: window: expected an odd integer >= 3, got 4
->>> check_choice("perlin", "kind", ("noise", "checker"), where="objects[0].texture")
-Traceback (most recent call last):
-...
-stereoforge.errors.ParameterError: objects[0].texture: kind: expected one of ['noise', 'checker'], got 'perlin'
-
-One module on purpose: the validators share one message format, which is the point of having them.
 """
 
 from __future__ import annotations
@@ -46,32 +21,15 @@ import numpy as np
 
 from stereoforge.errors import ParameterError, ParameterTypeError, StereoforgeError
 
-__all__ = [
-    "describe",
-    "range_text",
-    "fail",
-    "check_type",
-    "check_bool",
-    "check_int",
-    "check_real",
-    "check_rotation_deg",
-    "check_distortion",
-    "check_choice",
-    "check_sequence",
-    "check_array",
-    "check_dtype",
-    "check_shape",
-    "check_finite",
-    "check_keys",
-    "check_text",
-    "check_input_file",
-]
+__all__ = ["short_repr", "describe", "range_text", "fail", "check_type", "check_bool", "check_int",
+           "check_real", "check_choice", "check_sequence", "check_keys", "check_text",
+           "check_input_file"]
 
 _MAX_REPR = 80
 _BOM = codecs.BOM_UTF8
 
 
-def _short(value: object) -> str:
+def short_repr(value: object) -> str:
     """``repr(value)``, cut to :data:`_MAX_REPR` characters."""
     try:
         text = repr(value)
@@ -90,7 +48,7 @@ def describe(value: object) -> str:
     """
     if isinstance(value, np.ndarray):
         return f"array of shape {value.shape} and dtype {value.dtype}"
-    return f"{type(value).__name__} {_short(value)}"
+    return f"{type(value).__name__} {short_repr(value)}"
 
 
 def range_text(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
@@ -205,7 +163,7 @@ def _check_number(value: Any, name: str, what: str, accepts: Callable[[Any], boo
     except OverflowError:  # an integer beyond the float range (10**400 read from JSON)
         raise fail(name, expected, describe(value), fix=fix, where=where) from None
     if not (valid(v) and _in_range(v, lo, hi, lo_open, hi_open)):
-        raise fail(name, expected, _short(v), fix=fix, where=where)
+        raise fail(name, expected, short_repr(v), fix=fix, where=where)
     return v
 
 
@@ -335,83 +293,6 @@ def check_sequence(value: Any, name: str, *, length: int | None = None, nonempty
     return entries
 
 
-def check_array(value: Any, name: str, *, fix: str | None = "convert with np.asarray",
-                where: str | None = None) -> np.ndarray:
-    """``value`` if it is a numpy array (no silent conversion of lists).
-
-    Examples
-    --------
-    >>> check_array([[1, 2]], "left")
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterTypeError: left: expected a numpy array, got list [[1, 2]]; convert with np.asarray
-    """
-    return check_type(value, name, np.ndarray, expected="a numpy array", fix=fix, where=where)
-
-
-def check_dtype(array: np.ndarray, name: str, *, kinds: str = "",
-                dtypes: Iterable[Any] = (), expected: str | None = None,
-                fix: str | None = None, where: str | None = None) -> np.ndarray:
-    """``array`` if its dtype is one of ``dtypes`` or of a kind in ``kinds`` (``"uif"``: integers
-    and floats; bool is kind ``"b"``).
-
-    Examples
-    --------
-    >>> check_dtype(np.zeros(2, bool), "image", kinds="uif", expected="an integer or float image")
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterTypeError: image: expected an integer or float image, got dtype bool
-    """
-    allowed = [np.dtype(d) for d in dtypes]
-    if array.dtype.kind in kinds or array.dtype in allowed:
-        return array
-    if expected is None:
-        expected = "dtype " + " or ".join([*(str(d) for d in allowed), *(f"kind {k!r}" for k in kinds)])
-    raise fail(name, expected, f"dtype {array.dtype}", fix=fix, where=where,
-               error=ParameterTypeError)
-
-
-def check_shape(array: np.ndarray, name: str, shape: Iterable[int | str | None], *,
-                fix: str | None = None, where: str | None = None) -> np.ndarray:
-    """``array`` if its shape matches ``shape``: an int fixes a side, a str (``"H"``) or ``None``
-    lets it be any size.
-
-    Examples
-    --------
-    >>> check_shape(np.zeros((2, 2)), "d", (3, 3))
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterError: d: expected shape (3, 3), got (2, 2)
-    >>> check_shape(np.zeros(4), "image", ("H", "W"))
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterError: image: expected shape (H, W), got (4,)
-    """
-    want = tuple(shape)
-    ok = len(want) == array.ndim and all(
-        w is None or isinstance(w, str) or int(w) == s for w, s in zip(want, array.shape))
-    if not ok:
-        text = "(" + ", ".join("?" if w is None else str(w) for w in want) + ("," if len(want) == 1 else "") + ")"
-        raise fail(name, f"shape {text}", str(array.shape), fix=fix, where=where)
-    return array
-
-
-def check_finite(array: np.ndarray, name: str, *, what: str = "values", fix: str | None = None,
-                 where: str | None = None) -> np.ndarray:
-    """``array`` if it holds no NaN or inf.
-
-    Examples
-    --------
-    >>> check_finite(np.array([0.0, np.nan]), "right", what="pixel values")
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterError: right: expected finite pixel values, got 1 NaN/inf (of 2)
-    """
-    bad = ~np.isfinite(array)
-    if bad.any():
-        raise fail(name, f"finite {what}", f"{int(bad.sum())} NaN/inf (of {array.size})",
-                   fix=fix, where=where)
-    return array
 
 
 def check_keys(mapping: Mapping[Any, Any], name: str, allowed: Iterable[Any], *,
@@ -499,91 +380,3 @@ def check_input_file(path: str | os.PathLike[str], what: str, *, suffixes: Itera
             if inside else ""
         raise IsADirectoryError(f"{what} {path} is a directory{holding}{tail}")
     raise FileNotFoundError(f"{what} {path} does not exist{tail}")
-
-
-def check_rotation_deg(value: Any, name: str, *, limit: float, where: str | None = None) -> float:
-    """An angle in degrees within ``[-limit, limit]`` (a small rotation), as ``float``.
-
-    Examples
-    --------
-    >>> check_rotation_deg(30, "rx", limit=10.0)
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterError: rx: expected a rotation within +-10.0 degrees, got 30.0; a rectification error is a small rotation: pass degrees, not radians, and at most 10.0
-    """
-    v = check_real(value, name, where=where)
-    if not abs(v) <= limit:
-        raise fail(name, f"a rotation within +-{limit} degrees", _short(v), where=where,
-                   fix=f"a rectification error is a small rotation: pass degrees, not radians, "
-                       f"and at most {limit}")
-    return v
-
-
-#: Largest tangential coefficient ``|p1|``, ``|p2|`` of :func:`check_distortion`.
-MAX_TANGENTIAL = 0.05
-
-
-def check_distortion(coeffs: Any, name: str, *, max_radius: float,
-                     where: str | None = None) -> tuple[float, ...]:
-    """OpenCV ``(k1, k2, p1, p2, k3)`` that map the image one-to-one, as a tuple of floats.
-
-    The radial mapping ``g(r) = r (1 + k1 r^2 + k2 r^4 + k3 r^6)`` (normalised units) must
-    increase from the centre up to ``max_radius``, the distorted radius of the image's farthest
-    corner: with ``r_f`` the first radius where ``g'(r) = 0``, the bound is ``g(r_f) >
-    max_radius``. ``|p1|, |p2| <= 0.05``, and the Jacobian of the whole mapping (tangential terms
-    included) must stay positive on the image (checked on a polar grid of 64 x 64 points).
-
-    Examples
-    --------
-    >>> check_distortion((-0.3, 0.0, 0.0, 0.0, 0.0), "k", max_radius=0.7)
-    (-0.3, 0.0, 0.0, 0.0, 0.0)
-    >>> check_distortion((-0.6, 0.0, 0.0, 0.0, 0.0), "k", max_radius=0.7)  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    stereoforge.errors.ParameterError: k: expected a distortion that does not fold the image: ...
-    """
-    c = tuple(check_real(v, f"{name}[{i}]", where=where)
-              for i, v in enumerate(check_sequence(coeffs, name, length=5, where=where)))
-    k1, k2, p1, p2, k3 = c
-    r_max = check_real(max_radius, "max_radius", lo=0, lo_open=True)
-    for label, p in (("p1", p1), ("p2", p2)):
-        if not abs(p) <= MAX_TANGENTIAL:
-            raise fail(f"{name} {label}", f"|{label}| <= {MAX_TANGENTIAL}", _short(p), where=where,
-                       fix="real lenses have tangential coefficients of about 1e-3")
-    # first positive root of g'(r) = 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 (s = r^2)
-    roots = np.roots([7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0]) if any((k1, k2, k3)) else []
-    real = [float(s.real) for s in np.atleast_1d(roots)
-            if abs(s.imag) <= 1e-12 * max(1.0, abs(s)) and s.real > 0]
-    coef = f"k1={k1}, k2={k2}, k3={k3}"
-
-    def g(r: float) -> float:
-        with np.errstate(over="ignore", invalid="ignore"):
-            s = np.float64(r) * r
-            return float(r * (1.0 + s * (k1 + s * (k2 + s * k3))))
-
-    r_f = math.sqrt(min(real)) if real else math.inf
-    if real and not g(r_f) > r_max:
-        raise fail(name, "a distortion that does not fold the image: the radial mapping "
-                   "r (1 + k1 r^2 + k2 r^4 + k3 r^6) must increase up to the image corner's "
-                   f"distorted radius {r_max:.4g}", f"{coef}, which stops increasing at "
-                   f"r = {r_f:.4g} (distorted radius {g(r_f):.4g})", where=where,
-                   fix="reduce |k1|, |k2|, |k3| until that radius exceeds the corner's")
-    r_hi = min(1.0, r_f)  # the undistorted radius the image reaches (a little beyond)
-    while r_hi < r_f and g(r_hi) < 1.05 * r_max:
-        r_hi = min(2.0 * r_hi, r_f)
-    if p1 or p2:  # the Jacobian of the full mapping on the undistorted image (up to r_hi)
-        r, t = np.meshgrid(np.linspace(0.0, r_hi, 64), np.linspace(0.0, 2 * np.pi, 64))
-        x, y = r * np.cos(t), r * np.sin(t)
-        r2 = x * x + y * y
-        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        radius = r * radial
-        dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
-        a = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
-        b = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
-        d = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
-        inside = radius <= r_max * 1.05
-        if not np.all((a * d - b * b)[inside] > 0):
-            raise fail(name, "a distortion that does not fold the image (a positive Jacobian)",
-                       f"p1={p1}, p2={p2} with {coef}, which fold it", where=where,
-                       fix="reduce |p1|, |p2|")
-    return c
