@@ -13,7 +13,7 @@ import pytest
 from _pytest.doctest import DoctestItem
 
 # Every Ray a test starts or joins stays on the loopback, whichever test imports Ray first: Ray
-# keeps a node IP of 127.0.0.1 only with this set as it is imported (synth.dataset.engine).
+# keeps a node IP of 127.0.0.1 only with this set as it is imported (synth.dataset.engine.tasks).
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
 
 # The learning modules import torch (the extra 'learn', in the 'test' extra): without it their

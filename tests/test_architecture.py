@@ -80,7 +80,8 @@ def test_matcher_and_scenes_import_without_synth_or_gl():
 def test_nothing_but_the_learning_modules_loads_torch():
     """torch is an optional extra: the library, the CLI and every non-learning job load without it."""
     statement = ("import matcher, matcher.io, matcher.adapters, scenes, synth, synth.cli, "
-                 "synth.dataset.run, synth.validate.run, synth.jobs.study, synth.jobs.bench_match; "
+                 "synth.dataset.run, synth.validate.run, synth.jobs.study.run, "
+                 "synth.jobs.bench.match, synth.jobs.bench.transfer; "
                  "matcher.resolve_matcher('ct:9')")
     assert _loaded_after(statement, ("torch",)) == []
 
@@ -128,7 +129,8 @@ def test_importing_synth_and_its_cli_starts_no_gl():
 
 def test_import_synth_and_the_cli_are_light():
     """``synth`` and ``synth.cli`` load their names on first use: --help imports no numba/trimesh."""
-    assert _loaded_after("import synth, synth.cli, synth.dataset.engine", ("numba", "trimesh", "cv2")) == []
+    statement = "import synth, synth.cli, synth.dataset.engine.tasks"
+    assert _loaded_after(statement, ("numba", "trimesh", "cv2")) == []
 
 
 @pytest.mark.parametrize("package", ["synth", "synth.dataset", "synth.render", "matcher", "scenes"])

@@ -11,11 +11,11 @@ import pytest
 import stereoforge
 from matcher.io import PFMError
 from stereoforge import errors
-from synth.dataset.config import ConfigError
+from synth.dataset.config.parse import ConfigError
 from synth.dataset.run import DatasetError, SampleError
-from synth.export import OutputDirError
+from synth.write.export import OutputDirError
 from synth.render.renderer import GLBackendError
-from synth.jobs.study import StudyConfigError
+from synth.jobs.study.run import StudyConfigError
 
 
 @pytest.mark.parametrize(
@@ -41,7 +41,7 @@ def test_every_error_has_the_one_base_and_its_builtin_base(cls, base, builtins):
 
 def test_old_import_paths_give_the_same_classes():
     from synth.render.backend import GLBackendError as backend_error
-    from synth.jobs.study_config import StudyConfigError as study_error
+    from synth.jobs.study.config import StudyConfigError as study_error
 
     assert ConfigError is errors.ConfigError and DatasetError is errors.DatasetError
     assert backend_error is GLBackendError and study_error is StudyConfigError

@@ -27,9 +27,9 @@ from matcher.io import decode_pfm, encode_png, format_calib, parse_calib, read_c
 from matcher.io.png import read_disparity, read_image
 from scenes import dumps_json, dumps_toml, get_preset, load_scene, loads_json, loads_toml
 from stereoforge.errors import StereoforgeError
-from synth.dataset.config import load_config, loads_config
+from synth.dataset.config.parse import load_config, loads_config
 from synth.dataset.run import read_manifest, render_from_manifest
-from synth.jobs.study_config import load_study_config, loads_study_config
+from synth.jobs.study.config import load_study_config, loads_study_config
 
 FUZZ_FACTOR = 12
 FUZZ = settings(max_examples=FUZZ_FACTOR * settings.default.max_examples)

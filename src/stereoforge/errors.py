@@ -8,10 +8,10 @@ failure the project itself reports, and from the builtin exception that callers 
     +-- ParameterError (ValueError)          a value out of range, not an allowed choice, ...
     |   +-- SceneError                       a scene description (dict or file) is invalid
     +-- ParameterTypeError (TypeError, ValueError)   a value of the wrong type or dtype
-    +-- ConfigError (ValueError)             a configuration file (synth.dataset.config's), file:line
-    |   +-- synth.jobs.study_config.StudyConfigError
+    +-- ConfigError (ValueError)             a configuration file (synth.dataset's), file:line
+    |   +-- synth.jobs.study.config.StudyConfigError
     +-- DatasetError (ValueError)            a dataset directory (synth.dataset.run's) or output
-    |   +-- synth.export.OutputDirError      directory cannot be used as asked
+    |   +-- synth.OutputDirError             directory cannot be used as asked
     +-- FormatError (ValueError)             a file is truncated, corrupt or of another format
     |   +-- matcher.io.pfm.PFMError
     +-- BackendError (RuntimeError)          a rendering backend is missing or failed

@@ -3,7 +3,8 @@
 A :class:`Key` says what one setting takes (type, bounds, choices, array or not, default, doc);
 :func:`check_table` checks a whole table against ``{name: Key}`` with the validators of
 :mod:`stereoforge.validation`, naming unknown keys and where each key sits. The dataset and the
-study configurations (``synth.dataset.config``, ``synth.jobs.study_config``) declare their keys this way.
+study configurations (``synth.dataset.config.parse``, ``synth.jobs.study.config``) declare their
+keys this way.
 """
 
 from __future__ import annotations

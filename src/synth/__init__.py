@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from synth._lazy import lazy_namespace
+from synth._util.lazy import lazy_namespace
 
 if TYPE_CHECKING:
     from synth.dataset import (
@@ -38,13 +38,13 @@ if TYPE_CHECKING:
         render_from_manifest,
         run_dataset,
     )
-    from synth.camera import Defocus, Distortion, RigErrors
-    from synth.export import OutputDirError, write_pair
-    from synth.formats import FORMATS
+    from synth.camera.lens import Defocus, Distortion, RigErrors
+    from synth.write.export import OutputDirError, write_pair
+    from synth.write.formats import FORMATS
     from synth.pair import StereoPair, occlusion_mask, render_pair
-    from synth.photometric import PhotometricPair, PhotometricParams, apply_photometric
+    from synth.appearance.photometric import PhotometricPair, PhotometricParams, apply_photometric
     from synth.render import BACKENDS, GLBackendError, Renderer, ViewRender, resolve_backend
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
 #: Public name -> the module that defines it.
 _EXPORTS = {
@@ -53,21 +53,21 @@ _EXPORTS = {
     "DatasetConfig": "synth.dataset",
     "DatasetError": "synth.dataset",
     "DatasetRun": "synth.dataset",
-    "Defocus": "synth.camera",
-    "Distortion": "synth.camera",
-    "FORMATS": "synth.formats",
+    "Defocus": "synth.camera.lens",
+    "Distortion": "synth.camera.lens",
+    "FORMATS": "synth.write.formats",
     "GLBackendError": "synth.render",
-    "OutputDirError": "synth.export",
-    "PhotometricPair": "synth.photometric",
-    "PhotometricParams": "synth.photometric",
+    "OutputDirError": "synth.write.export",
+    "PhotometricPair": "synth.appearance.photometric",
+    "PhotometricParams": "synth.appearance.photometric",
     "Renderer": "synth.render",
-    "RigErrors": "synth.camera",
+    "RigErrors": "synth.camera.lens",
     "SampleError": "synth.dataset",
     "StereoDataset": "synth.dataset",
     "StereoPair": "synth.pair",
-    "StereoRig": "synth.rig",
+    "StereoRig": "synth.camera.rig",
     "ViewRender": "synth.render",
-    "apply_photometric": "synth.photometric",
+    "apply_photometric": "synth.appearance.photometric",
     "load_config": "synth.dataset",
     "occlusion_mask": "synth.pair",
     "read_manifest": "synth.dataset",
@@ -75,7 +75,7 @@ _EXPORTS = {
     "render_pair": "synth.pair",
     "resolve_backend": "synth.render",
     "run_dataset": "synth.dataset",
-    "write_pair": "synth.export",
+    "write_pair": "synth.write.export",
 }
 
 __all__ = sorted(_EXPORTS)

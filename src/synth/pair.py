@@ -21,9 +21,9 @@ from numba import njit
 from stereoforge.validation import check_real, check_type
 from synth.render.lighting import HIGHLIGHT_LEVELS
 from synth.render.meshes import DISPLAY_GAMMA
-from synth.imperfect import real_views
+from synth.camera.imperfect import real_views
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = [
     "StereoPair",

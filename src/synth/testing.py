@@ -52,14 +52,14 @@ def rendered_pairs(renderer, *, width: int = 64, height: int = 48, baseline: flo
     renderer : synth.render.Renderer
         An open renderer (one GL context for all examples).
     width, height : int
-        Image size; the rig is :meth:`synth.rig.StereoRig.default` at that size.
+        Image size; the rig is :meth:`synth.camera.rig.StereoRig.default` at that size.
     baseline : float
         Baseline in metres.
     names : tuple of str, optional
         Presets to draw from (default: all).
     """
     from synth.pair import render_pair
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
     rig = StereoRig.default(width, height, baseline=baseline)
     return preset_scenes(names=names).map(lambda scene: render_pair(scene, rig, renderer=renderer))
@@ -67,7 +67,7 @@ def rendered_pairs(renderer, *, width: int = 64, height: int = 48, baseline: flo
 
 def rig_errors(*, max_k1: float = 0.2, max_rotation_deg: float = 2.0,
                max_dy_px: float = 2.0) -> st.SearchStrategy:
-    """Small, realistic :class:`synth.camera.RigErrors`: distortion of both cameras (``|k1| <=
+    """Small, realistic :class:`synth.camera.lens.RigErrors`: distortion of both cameras (``|k1| <=
     max_k1``, ``|k2| <= max_k1 / 4``, ``|p1|, |p2| <= 0.002``), a rotation of the right camera
     within ``max_rotation_deg`` per axis, a vertical offset within ``max_dy_px`` and a focal
     ratio in [0.97, 1.03]. They never fold a view of up to ~60 degrees.
@@ -75,7 +75,7 @@ def rig_errors(*, max_k1: float = 0.2, max_rotation_deg: float = 2.0,
     Use with ``dataclasses.replace(rig, errors=...)`` and ``render_pair``: the pair then carries
     the exact ``flow_left`` of its real cameras.
     """
-    from synth.camera import Distortion, RigErrors
+    from synth.camera.lens import Distortion, RigErrors
 
     def distortions() -> st.SearchStrategy:
         return st.builds(Distortion, st.floats(-max_k1, max_k1), st.floats(-max_k1 / 4, max_k1 / 4),

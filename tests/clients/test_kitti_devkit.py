@@ -109,7 +109,7 @@ def test_calib_cam_to_cam_round_trip(tmp_path):
 def test_devkit_evaluates_a_dataset_directory_as_it_is(kitti_devkit, renderer, tmp_path):
     """A KITTI dataset written by run_dataset: DIR/training is the devkit's ground-truth folder
     as it is (the sample folders, header, manifests and records do not disturb it)."""
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
     from synth.dataset.run import run_dataset
 
     out = tmp_path / "ds"

@@ -140,7 +140,7 @@ def test_runeval_walks_a_dataset_directory_as_it_is(middeval_sdk, renderer, tmp_
     """A dataset written by run_dataset: runeval run in DIR/MiddEval3 finds every sample in
     trainingF/ and nothing else (the header, manifests and records sit outside)."""
     from matcher.io import read_pfm, write_pfm
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
     from synth.dataset.run import run_dataset
 
     out = tmp_path / "ds"

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from matcher.io import load_kitti_2015, load_middlebury_2014, read_image
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import run_dataset
 
 CONFIG = """\

@@ -13,9 +13,9 @@ from matcher import match
 from matcher.io import encode_kitti_disparity, encode_png, load_kitti_2015, load_middlebury_2014, read_disparity, read_image, write_pfm
 from matcher.benchmarks import kitti_2015, middlebury_v3
 from scenes import get_preset
-from synth.export import write_pair
+from synth.write.export import write_pair
 from synth.pair import render_pair
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 @pytest.mark.gl

@@ -10,7 +10,7 @@ import pytest
 
 import matcher
 from matcher import match
-from synth.jobs.bench_match import textured_pair
+from synth.jobs.bench.match import textured_pair
 from matcher.census import census_transform
 from matcher.cost import aggregate_cost, cost_volume
 from matcher.select import winner_takes_all

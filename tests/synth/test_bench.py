@@ -8,7 +8,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from synth.jobs.bench_render import bench_render, write_table
+from synth.jobs.bench.render import bench_render, write_table
 from synth.cli import main
 from synth.render.renderer import Renderer
 
@@ -44,7 +44,7 @@ def test_bench_render_cli_rejects_bad_threads(tmp_path) -> None:
 
 
 def test_machine_names_the_simd_level_numba_compiles_for() -> None:
-    from synth.jobs.machine import AVX2_TARGET, simd_level
+    from synth.jobs.bench.machine import AVX2_TARGET, simd_level
 
     assert simd_level(AVX2_TARGET["NUMBA_CPU_FEATURES"]) == "AVX2"
     assert simd_level("+sse2,+sse4.2") == "SSE4.2"
@@ -57,10 +57,10 @@ def test_machine_reports_an_environment_set_numba_target() -> None:
     import subprocess
     import sys
 
-    from synth.jobs.machine import AVX2_TARGET
+    from synth.jobs.bench.machine import AVX2_TARGET
 
     env = {**os.environ, **AVX2_TARGET}
-    code = "from synth.jobs.machine import describe_machine; print(describe_machine(backend=None).numba_target)"
+    code = "from synth.jobs.bench.machine import describe_machine; print(describe_machine(backend=None).numba_target)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "haswell (NUMBA_CPU_NAME), AVX2"
@@ -68,7 +68,7 @@ def test_machine_reports_an_environment_set_numba_target() -> None:
 
 @pytest.mark.slow
 def test_bench_match_times_an_avx2_build_beside_the_native_one() -> None:
-    from synth.jobs.bench_match import RUNS, bench_match_isas
+    from synth.jobs.bench.match import RUNS, bench_match_isas
 
     rows = bench_match_isas("avx2", sizes=((64, 48, 16),), repeats=1)
     isas = [r["isa"] for r in rows]
@@ -79,7 +79,7 @@ def test_bench_match_times_an_avx2_build_beside_the_native_one() -> None:
 
 
 def test_bench_match_refuses_an_unknown_isa() -> None:
-    from synth.jobs.bench_match import bench_match_isas
+    from synth.jobs.bench.match import bench_match_isas
 
     with pytest.raises(ValueError, match="isa must be one of native, avx2, got 'sse'"):
         bench_match_isas("sse")

@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from synth.cli import main
-from synth.jobs.bench_realism import MATCHERS, REAL_SCENES, bench_realism, format_verdict
+from synth.jobs.bench.realism import MATCHERS, REAL_SCENES, bench_realism, format_verdict
 
 
 @pytest.mark.gl

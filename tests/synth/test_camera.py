@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 
 from stereoforge.errors import ConfigError, ParameterError, StereoforgeError
 from stereoforge.validation import check_distortion
-from synth.camera import Defocus, Distortion, RigErrors, distort, rotation_matrix, undistort
-from synth.dataset.config import load_config, loads_config
-from synth.rig import StereoRig
+from synth.camera.lens import Defocus, Distortion, RigErrors, distort, rotation_matrix, undistort
+from synth.dataset.config.parse import load_config, loads_config
+from synth.camera.rig import StereoRig
 
 MILD = (-0.12, 0.03, 0.0005, -0.0008, 0.001)
 

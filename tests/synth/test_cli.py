@@ -178,7 +178,7 @@ def test_render_from_manifest_respects_overwrite(tmp_path, renderer):
 
 
 def test_match_reports_the_warm_time_and_the_first_call_apart(tmp_path):
-    from synth.jobs.timing import first_and_warm
+    from synth.jobs.bench.timing import first_and_warm
 
     golden = Path(__file__).resolve().parents[2] / "golden" / "boxes"
     result = _run("match", golden / "im0.png", golden / "im1.png", "--method", "ct", "--window", "5",

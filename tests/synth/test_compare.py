@@ -14,10 +14,10 @@ import pytest
 from click.testing import CliRunner
 
 from matcher.io import encode_pfm, encode_png
-from synth._json import json_bytes
+from synth._util.json_records import json_bytes
 from synth.cli import main
 from synth.dataset.compare import Difference, compare_datasets, same_content, summarize
-from synth.dataset.shards import sha256
+from synth.dataset.storage.shards import sha256
 
 _MASK = np.full((6, 8), 255, np.uint8)
 _MASK[2:4, 3:5] = 128

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from synth.dataset.config import (
+from synth.dataset.config.parse import (
     EXAMPLES,
     SCHEMA,
     ConfigError,

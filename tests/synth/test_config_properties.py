@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from synth.dataset.config import Dist, loads_config
+from synth.dataset.config.parse import Dist, loads_config
 
 bounds = st.tuples(st.floats(0.01, 10.0), st.floats(0.01, 10.0)).map(sorted)
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from stereoforge.errors import ConfigError
-from synth.dataset.config import loads_config
-from synth.dataset.sampling import draw_sample
+from synth.dataset.config.parse import loads_config
+from synth.dataset.config.sampling import draw_sample
 
 _MIX = """
 [rig]

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from synth.dataset.compare import compare_datasets, summarize
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import (
     DatasetError,
     SampleError,
@@ -23,7 +23,7 @@ from synth.dataset.run import (
     render_from_manifest,
     run_dataset,
 )
-from synth.dataset.sampling import draw_sample, sample_seed
+from synth.dataset.config.sampling import draw_sample, sample_seed
 
 CONFIG = """\
 name = "tiny"
@@ -267,7 +267,7 @@ def test_middlebury_2014_layout_is_the_middeval3_samples_renamed(reference, conf
     ``split="2014"`` takes every entry for one), each with the MiddEval3 sample's bytes and the
     ground truth named ``disp0.pfm``/``disp1.pfm``; resume, verify and render_from_manifest as
     in the other layouts."""
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     out = tmp_path / "mb2014"
     run_dataset(config_file, out=out, count=3, fmt="middlebury2014", progress=False)
@@ -385,7 +385,7 @@ def test_edge_density_config_reaches_its_targets(tmp_path, renderer):
 @pytest.mark.gl
 def test_the_edge_statistic_reuses_the_search_measurement(tmp_path, renderer, monkeypatch):
     import synth.dataset.sample as dataset
-    from synth.texture_control import edge_density
+    from synth.appearance.texture_control import edge_density
 
     text = CONFIG.replace("count = 12", "count = 2").replace("width = 48", "width = 64").replace(
         "height = 32", "height = 48").replace(
@@ -425,7 +425,7 @@ def _damage(out: Path) -> None:
 @pytest.mark.gl
 def test_resume_renders_again_an_emptied_folder_and_a_truncated_file(reference, config_file,
                                                                       tmp_path):
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     out = _copy(reference, tmp_path / "ds")
     _damage(out)
@@ -487,7 +487,7 @@ def test_the_dataset_command_says_which_samples_it_repaired_and_why(reference, c
 @pytest.mark.gl
 def test_same_size_corruption_is_left_to_verify(reference, config_file, tmp_path):
     """Resume checks sizes only (cheap); --verify checks every SHA-256 and reports the rest."""
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     out = _copy(reference, tmp_path / "ds")
     disp = _sample(out, 2) / "disp0GT.pfm"
@@ -530,7 +530,7 @@ def test_same_size_corruption_is_left_to_verify(reference, config_file, tmp_path
 
 @pytest.mark.gl
 def test_verify_reports_a_sample_json_that_is_not_json_instead_of_stopping(reference, tmp_path):
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     out = _copy(reference, tmp_path / "ds")
     record = _sample(out, 9) / "sample.json"
@@ -583,7 +583,7 @@ def test_a_torn_sample_is_rendered_again_with_the_same_bytes(config_file, tmp_pa
 @pytest.mark.gl
 def test_kitti_records_list_the_images_outside_the_sample_folder(config_file, tmp_path,
                                                                   renderer):
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     out = tmp_path / "kitti"
     run_dataset(config_file, out=out, count=2, fmt="kitti", progress=False)
@@ -634,7 +634,7 @@ def test_a_layout_1_dataset_is_refused_then_upgraded_to_the_same_bytes(reference
     from click.testing import CliRunner
 
     from synth.cli import main
-    from synth.dataset.layout import upgrade_dataset
+    from synth.dataset.storage.layout import upgrade_dataset
 
     old = tmp_path / "old"
     _to_layout_1(reference, old)

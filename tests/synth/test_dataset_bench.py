@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from synth.jobs.bench_dataset import (
+from synth.jobs.bench.dataset import (
     _cpu_seconds,
     _steady_cpu_per_pair,
     bench_dataset,
@@ -92,7 +92,7 @@ def test_bench_on_ray_commits_every_returned_sample_in_the_driver(tmp_path, rend
                                                                   require_or_skip,
                                                                   monkeypatch):
     from synth.dataset import run
-    from synth.dataset.engine import ray_available
+    from synth.dataset.engine.tasks import ray_available
 
     if not ray_available():
         require_or_skip("ray is not installed (optional extra: pip install ray)",
@@ -148,7 +148,7 @@ def test_bench_dataset_cli_rejects_bad_options(tmp_path, args, message):
 
 def test_resized_keeps_the_field_of_view():
     from synth.dataset import load_config
-    from synth.jobs.bench_dataset import resized
+    from synth.jobs.bench.dataset import resized
 
     cfg = load_config("flying")
     big = resized(cfg, 960, 540)

@@ -9,9 +9,9 @@ import pytest
 
 from matcher.io import read_image, read_pfm
 from stereoforge.errors import ConfigError
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import render_from_manifest, run_dataset
-from synth.dataset.sampling import draw_sample
+from synth.dataset.config.sampling import draw_sample
 
 BASE = """\
 name = "lit"

@@ -15,8 +15,8 @@ from click.testing import CliRunner
 
 from stereoforge.errors import DatasetError, ParameterError, ParameterTypeError
 from synth.cli import main
-from synth.dataset.config import loads_config
-from synth.dataset.integrity import verify_dataset
+from synth.dataset.config.parse import loads_config
+from synth.dataset.storage.integrity import verify_dataset
 from synth.dataset.parts import RunLock
 from synth.dataset.run import read_manifest, run_dataset
 
@@ -235,7 +235,7 @@ def test_a_header_written_meanwhile_by_another_driver_is_checked_not_refused(mon
     import fsspec
 
     from synth.dataset import run
-    from synth.dataset.storage import FsPath, dataset_path
+    from synth.dataset.storage.fs import FsPath, dataset_path
 
     cfg = loads_config(CONFIG)
     out = dataset_path("memory://parts-header")

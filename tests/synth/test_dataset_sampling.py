@@ -1,12 +1,12 @@
-"""Per-sample seeds, parameter draws and scenes (synth.dataset.sampling)."""
+"""Per-sample seeds, parameter draws and scenes (synth.dataset.config.sampling)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from synth.dataset.config import loads_config
-from synth.dataset.sampling import draw_sample, effective_frequency_px, sample_seed, stream
+from synth.dataset.config.parse import loads_config
+from synth.dataset.config.sampling import draw_sample, effective_frequency_px, sample_seed, stream
 
 CFG = loads_config("""
 seed = 4

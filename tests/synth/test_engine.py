@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from synth.dataset.engine import ray_available, run_tasks
+from synth.dataset.engine.tasks import ray_available, run_tasks
 
 
 class _Square:
@@ -97,9 +97,9 @@ _PRELOAD = """
 import os, sys, threading
 import cv2, numpy, scipy.linalg  # their BLAS thread pools start at import (fork-aware)
 libraries = len(os.listdir("/proc/self/task"))
-from synth.dataset.config import load_config
+from synth.dataset.config.parse import load_config
 from synth.dataset.sample import SampleTask
-from synth.dataset.engine import _preload
+from synth.dataset.engine.tasks import _preload
 modules = _preload(SampleTask(load_config("planes"), "/nonexistent", "middlebury", "auto"))
 for name in modules:
     __import__(name)
@@ -113,9 +113,9 @@ print(threading.active_count(), len(os.listdir("/proc/self/task")) - libraries)
 def test_the_fork_server_preload_opens_no_gl_and_starts_no_thread():
     out = subprocess.run([sys.executable, "-c", _PRELOAD], capture_output=True, text=True,
                          check=True).stdout.splitlines()
-    assert out[0] == str(sorted(["synth.dataset.guard", "synth.dataset.engine", "synth.dataset.sample",
-                                 "synth.pair",
-                                 "synth.dataset.warm"]))
+    assert out[0] == str(sorted(["synth.dataset.engine.guard", "synth.dataset.engine.tasks",
+                                 "synth.dataset.sample", "synth.pair",
+                                 "synth.dataset.engine.warm"]))
     assert out[1] == "[]"  # nothing GL: a forked GL state would be unusable
     # one Python thread, and no OS thread beyond numpy's, SciPy's and OpenCV's BLAS pools
     # (which re-initialise after a fork): numba's OpenMP pool is never started there
@@ -126,7 +126,7 @@ _FAULTS = """
 import resource, sys
 import numpy as np
 if sys.argv[1] == "tuned":
-    from synth.dataset.engine import _tune_malloc
+    from synth.dataset.engine.tasks import _tune_malloc
     _tune_malloc()
 sizes = [3 << 20, 5 << 20, 2 << 20, 7 << 20]  # numpy temporaries of a few MB, as in a sample
 for _ in range(3):
@@ -180,7 +180,7 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
     _require_ray(require_or_skip)
     import ray
 
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
     from synth.dataset.run import SampleError, run_dataset
 
     cfg = loads_config("seed = 2\ncount = 4\n[rig]\nwidth = 32\nheight = 24\n[scene]\n"
@@ -211,7 +211,7 @@ _EARLY_SERVER = """
 import json, sys, time
 sys.path.insert(0, sys.argv[1])
 import psutil
-from synth.dataset.engine import run_tasks, start_worker_server
+from synth.dataset.engine.tasks import run_tasks, start_worker_server
 
 start_worker_server(["early_task"])  # before this process imports the task's module
 servers, deadline = [], time.monotonic() + 10  # polled: it may still be exec'ing under load
@@ -264,7 +264,7 @@ def test_an_unreachable_ray_address_fails_fast_with_the_address(tmp_path, requir
 
 
 def test_ray_address_forms():
-    from synth.dataset.engine import check_ray_address
+    from synth.dataset.engine.tasks import check_ray_address
 
     check_ray_address("auto")  # Ray resolves these itself: nothing to check, nothing raised
     check_ray_address("ray://head:10001")

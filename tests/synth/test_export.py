@@ -1,4 +1,4 @@
-"""One pair on disk (synth.export): the KITTI object map, the staged output folder."""
+"""One pair on disk (synth.write.export): the KITTI object map, the staged output folder."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from scenes import get_preset, plane_equation
-from synth.export import foreground_map, staged_output_dir
+from synth.write.export import foreground_map, staged_output_dir
 from synth.pair import StereoPair
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 def _pair(disp_left: np.ndarray, rig: StereoRig) -> StereoPair:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from synth.dataset.config import list_examples, load_config
+from synth.dataset.config.parse import list_examples, load_config
 from synth.dataset.run import produce_sample
 
 GOLDEN = Path(__file__).with_name("golden_samples.json")

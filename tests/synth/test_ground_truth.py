@@ -11,7 +11,7 @@ import trimesh
 
 from synth.pair import MASK_VISIBLE, render_pair
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 pytestmark = pytest.mark.gl
 

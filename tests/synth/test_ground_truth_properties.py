@@ -15,7 +15,7 @@ from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec
 
 from synth.pair import render_pair
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 pytestmark = pytest.mark.gl
 

@@ -1,6 +1,6 @@
 """Exactness of the flow of an imperfect rig: closed form on planes, warping, ray casting.
 
-The flow of ``render_pair`` (``synth.imperfect.camera_flow``) is checked against code that shares
+The flow of ``render_pair`` (``synth.camera.imperfect.camera_flow``) is checked against code that shares
 none of it: the plane-induced homography with OpenCV's ``projectPoints`` and a fixed-point
 undistortion (closed form), the right image warped onto the left (the images are rendered
 separately from the flow), and brute-force float64 ray-triangle tests (ray casting).
@@ -19,13 +19,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from matcher.io import read_flo, read_image
-from synth.camera import Defocus, Distortion, RigErrors, rotation_matrix
-from synth.export import OutputDirError, write_pair
+from synth.camera.lens import Defocus, Distortion, RigErrors, rotation_matrix
+from synth.write.export import OutputDirError, write_pair
 from synth.pair import render_pair
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 from synth.testing import rig_errors
-from synth.texture_control import retexture
+from synth.appearance.texture_control import retexture
 
 pytestmark = pytest.mark.gl
 
@@ -269,7 +269,7 @@ def test_imperfect_rig_dataset_warps_onto_itself(tmp_path) -> None:
     """The shipped ``imperfect-rig`` config (scaled to 128 x 96): each sample's right image,
     warped by its flow0.flo, is its left image on textured pixels away from depth edges."""
     from synth.dataset import run_dataset
-    from synth.dataset.config import config_from_dict, load_config
+    from synth.dataset.config.parse import config_from_dict, load_config
 
     data = load_config("imperfect-rig").to_dict()
     k = 128 / data["rig"]["width"]
@@ -291,7 +291,7 @@ def test_missing_embree_is_one_clear_error(monkeypatch) -> None:
     import trimesh.ray
 
     from stereoforge.errors import BackendError
-    from synth.imperfect import camera_flow
+    from synth.camera.imperfect import camera_flow
 
     monkeypatch.setattr(trimesh.ray, "has_embree", False)
     with pytest.raises(BackendError, match="embree, which is not installed; fix: pip install"):

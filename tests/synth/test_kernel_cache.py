@@ -8,7 +8,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-from synth.kernel_cache import DATASET_KERNELS, MATCHER_KERNELS, _cache_dir, _source, missing_kernels
+from synth._util.kernel_cache import (DATASET_KERNELS, MATCHER_KERNELS, _cache_dir, _source,
+                                      missing_kernels)
 
 
 def test_an_empty_cache_misses_every_kernel_file_and_one_index_is_enough(tmp_path, monkeypatch):
@@ -25,12 +26,13 @@ def test_an_empty_cache_misses_every_kernel_file_and_one_index_is_enough(tmp_pat
     line = next(i for i, text in enumerate(source.read_text().splitlines(), 1)
                 if text.startswith("def _mask_kernel")) - 1  # its decorator's line
     (folder / f"pair._mask_kernel-{line}.{tag}.nbi").write_bytes(b"")
-    assert missing_kernels(DATASET_KERNELS) == ["synth/photometric.py", "matcher/_kernels/canny.py"]
+    assert missing_kernels(DATASET_KERNELS) == ["synth/appearance/photometric.py",
+                                                "matcher/_kernels/canny.py"]
 
 
 _SCRIPT = """\
 from numba import njit
-from synth.kernel_cache import compile_notice
+from synth._util.kernel_cache import compile_notice
 
 
 @njit(cache=True)
@@ -67,11 +69,11 @@ def test_a_cold_cache_is_announced_once_and_a_warm_one_is_silent(tmp_path):
 
 
 def test_a_partly_filled_cache_says_nothing(tmp_path, monkeypatch):
-    from synth.kernel_cache import compile_notice
+    from synth._util.kernel_cache import compile_notice
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     said: list[str] = []
-    with compile_notice(["synth/pair.py", "synth/photometric.py"], said.append) as cold:
+    with compile_notice(["synth/pair.py", "synth/appearance/photometric.py"], said.append) as cold:
         pass
     assert cold and len(said) == 2 and said[0].startswith("compiling numba kernels once")
     source = _source("synth/pair.py")  # one file cached (another method's kernels): no notice
@@ -81,6 +83,6 @@ def test_a_partly_filled_cache_says_nothing(tmp_path, monkeypatch):
     tag = f"py{sys.version_info[0]}{sys.version_info[1]}"
     (_cache_dir(source) / f"pair._mask_kernel-{line}.{tag}.nbi").write_bytes(b"")
     said.clear()
-    with compile_notice(["synth/pair.py", "synth/photometric.py"], said.append) as cold:
+    with compile_notice(["synth/pair.py", "synth/appearance/photometric.py"], said.append) as cold:
         pass
     assert not cold and said == []

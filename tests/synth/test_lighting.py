@@ -14,7 +14,7 @@ from scenes.strategies import lamp_specs, material_specs
 from stereoforge.errors import StereoforgeError
 from synth.pair import expose, render_pair
 from synth.render.lighting import HIGHLIGHT_LEVELS
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 from synth.testing import preset_scenes
 
 RIG = StereoRig.default(96, 72, fx=80.0, baseline=0.2)

@@ -16,7 +16,7 @@ import pytest
 from matcher.io import load_kitti_2015, load_middlebury_2014
 from stereoforge.errors import DatasetError
 from synth import StereoDataset
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.loader import is_validation
 from synth.dataset.run import read_manifest, run_dataset
 

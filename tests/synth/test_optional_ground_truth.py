@@ -1,5 +1,6 @@
-"""Optional ground truth (synth.ground_truth): rendered labels against per-object renders, normals
-of known planes, the right view's mask, the dataset option, StereoDataset and shards carrying it."""
+"""Optional ground truth (synth.write.ground_truth): rendered labels against per-object renders,
+normals of known planes, the right view's mask, the dataset option, StereoDataset and shards
+carrying it."""
 
 from __future__ import annotations
 
@@ -11,18 +12,18 @@ import pytest
 
 import scenes
 from stereoforge.errors import ConfigError, ParameterError
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import run_dataset
-from synth.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
+from synth.write.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
                                 render_ground_truth, right_occlusion_mask, semantic_lut)
 from synth.pair import occlusion_mask, render_pair
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 RIG = StereoRig.default(64, 48)
 
 
 def test_config_kinds_are_the_library_kinds():
-    from synth.dataset import config_keys
+    from synth.dataset.config import keys as config_keys
 
     assert config_keys.GROUND_TRUTH_KINDS == GROUND_TRUTH
     assert check_ground_truth("semantic,depth") == ("depth", "semantic")
@@ -111,7 +112,7 @@ base = {choice = ["boxes", "flying"]}
 @pytest.mark.gl
 def test_datasets_stereo_dataset_and_shards_carry_the_ground_truth(tmp_path, renderer):
     from synth import StereoDataset
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     cfg = loads_config(CONFIG)
     out = tmp_path / "mb"

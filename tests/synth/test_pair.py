@@ -9,7 +9,7 @@ import scenes
 
 from synth.pair import MASK_OCCLUDED, MASK_VISIBLE, StereoPair, occlusion_mask, render_pair
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 # ---------------------------------------------------------------------------- occlusion mask

@@ -1,4 +1,4 @@
-"""synth.jobs.paper.run_paper on a tiny synthetic Middlebury-like folder."""
+"""synth.jobs.paper.tables.run_paper on a tiny synthetic Middlebury-like folder."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from synth.jobs.paper import run_paper
+from synth.jobs.paper.tables import run_paper
 
 
 def _scene(root, name, shift, seed):
@@ -68,7 +68,7 @@ def test_run_paper_bad_input(tmp_path):
 
 @pytest.mark.slow
 def test_paper_table1_carries_the_papers_values_and_plots_them(tmp_path):
-    from synth.jobs.paper import PAPER_TABLE1
+    from synth.jobs.paper.tables import PAPER_TABLE1
 
     _scene(tmp_path, "Moebius", 4, 0)  # a paper scene (toy images): the paper's values apply
     _scene(tmp_path, "ToyB", 6, 1)  # not in the paper: empty paper columns

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from synth.photometric import (
+from synth.appearance.photometric import (
     PhotometricParams,
     _normal_quantiles,
     apply_photometric,

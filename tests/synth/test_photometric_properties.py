@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from synth.photometric import (
+from synth.appearance.photometric import (
     PhotometricParams,
     _normal_quantiles,
     apply_photometric,

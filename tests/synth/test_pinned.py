@@ -12,11 +12,11 @@ import pytest
 
 from matcher.io import read_calib, read_image, read_pfm
 from scenes import scene_from_dict
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import read_manifest, run_dataset
-from synth.dataset.sampling import draw_sample, effective_frequency_px
-from synth.photometric import PhotometricParams, apply_photometric
-from synth.texture_control import edge_density
+from synth.dataset.config.sampling import draw_sample, effective_frequency_px
+from synth.appearance.photometric import PhotometricParams, apply_photometric
+from synth.appearance.texture_control import edge_density
 
 _TINY = """\
 name = "pinned"
@@ -192,8 +192,8 @@ def test_calib_ndisp_is_above_vmax_also_on_a_multiple_of_16(top, vmax, ndisp):
     """ndisp = vmax + 1 rounded up to a multiple of 16: d = vmax must be searched."""
     from types import SimpleNamespace
 
-    from synth.export import calib_for
-    from synth.rig import StereoRig
+    from synth.write.export import calib_for
+    from synth.camera.rig import StereoRig
 
     disp = np.array([[np.inf, 3.25, top]], np.float32)
     rig = StereoRig(width=3, height=1, fx=100.0, fy=100.0, cx=1.0, cy=0.0, baseline=0.1)

@@ -88,7 +88,7 @@ def test_sigkill_of_the_main_process_ends_every_child(command, tmp_path):
 
 _CHAIN = """
 import os, sys, time
-from synth.dataset.engine import die_with_parent
+from synth.dataset.engine.tasks import die_with_parent
 if sys.argv[1] == "child":
     die_with_parent(also=int(sys.argv[2]))
     if len(sys.argv) > 3:

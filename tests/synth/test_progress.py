@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from synth.progress import LOG_SECONDS, LogProgress, progress
+from synth._util.progress import LOG_SECONDS, LogProgress, progress
 
 
 class _Clock:

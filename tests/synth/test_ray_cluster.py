@@ -20,7 +20,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from synth.dataset.engine import ray_available
+from synth.dataset.engine.tasks import ray_available
 
 pytestmark = [pytest.mark.ray, pytest.mark.gl, pytest.mark.slow]
 
@@ -88,7 +88,7 @@ def config_file(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def local_runs(tmp_path_factory, renderer, config_file):
     """Local runs with 1 and 2 workers: the reference bytes."""
-    from synth.dataset.config import load_config
+    from synth.dataset.config.parse import load_config
     from synth.dataset.run import run_dataset
 
     root = tmp_path_factory.mktemp("local")
@@ -120,8 +120,8 @@ def test_workers_do_not_write_memory_urls_get_the_local_bytes(cluster, config_fi
                                                              local_runs):
     import fsspec
 
-    from synth.dataset.config import load_config
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.config.parse import load_config
+    from synth.dataset.storage.integrity import verify_dataset
     from synth.dataset.run import run_dataset
 
     cfg = load_config(config_file)
@@ -144,8 +144,8 @@ def test_a_node_that_dies_mid_run_loses_no_sample_and_leaves_no_partial_file(
     sample: its sample in flight is run again on the head's actor."""
     import ray
 
-    from synth.dataset.config import loads_config
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.config.parse import loads_config
+    from synth.dataset.storage.integrity import verify_dataset
     from synth.dataset.run import run_dataset
 
     count = 30
@@ -205,7 +205,7 @@ def test_bench_dataset_measures_a_cluster_at_its_address(cluster, config_file):
     process commits what they return (its CPU per pair is the driver's)."""
     import ray
 
-    from synth.jobs.bench_dataset import bench_dataset
+    from synth.jobs.bench.dataset import bench_dataset
 
     rows = bench_dataset(configs=(str(config_file),), count=4, workers=(1, 2), engine="ray",
                          address=cluster.address)

@@ -3,7 +3,7 @@ and an address that answers but is no Ray.
 
 The driver runs the CLI in a fresh process (Ray imported there by the engine, on the loopback;
 this process imports Ray for the cluster without RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER). The stall
-timeout is lowered in that process through ``synth.dataset.ray_driver.RAY_STALL_TIMEOUT_S``.
+timeout is lowered in that process through ``synth.dataset.engine.ray_driver.RAY_STALL_TIMEOUT_S``.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from synth.dataset.engine import ray_available
+from synth.dataset.engine.tasks import ray_available
 
 pytestmark = [pytest.mark.ray, pytest.mark.slow]
 
@@ -29,7 +29,7 @@ _STALL_S = 3.0
 # the CLI with the stall timeout lowered: argv = [stall seconds, stereoforge's arguments...]
 _CLI = """
 import sys
-from synth.dataset import ray_driver
+from synth.dataset.engine import ray_driver
 ray_driver.RAY_STALL_TIMEOUT_S = float(sys.argv[1])
 from synth.cli import main
 main(sys.argv[2:], prog_name="stereoforge")

@@ -19,7 +19,7 @@ from PIL import Image
 import synth.render.backend as backend_mod
 from synth.pair import render_pair
 from synth.render.renderer import GLBackendError, Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 # ---------------------------------------------------------------------------- no GL needed
@@ -97,7 +97,7 @@ def test_locked_platform_error(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_importing_synth_does_not_import_gl() -> None:
     """PYOPENGL_PLATFORM must be settable after `import synth`: GL imports are lazy."""
-    code = ("import sys, synth.render.renderer, synth.pair, synth.rig; "
+    code = ("import sys, synth.render.renderer, synth.pair, synth.camera.rig; "
             "print(sorted(m for m in ('OpenGL', 'pyrender') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
@@ -281,7 +281,7 @@ def test_closed_renderer_refuses() -> None:
 _BACKEND_SCRIPT = textwrap.dedent("""
     import json, sys, hashlib, scenes
     from synth.pair import render_pair
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
     rig = StereoRig.default(32, 24)
     p = render_pair(scenes.get_preset("slanted_plane"), rig, backend=sys.argv[1])
     print(json.dumps({"backend": p.meta["backend"],
@@ -324,7 +324,7 @@ _THREADS_SCRIPT = textwrap.dedent("""
     import scenes
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
     threads = int(sys.argv[1])
     rig = StereoRig.default(96, 72)

@@ -28,7 +28,7 @@ _RENDER = textwrap.dedent("""
     from synth.render.context import EGLContext
     from synth.jobs.golden import golden_check
     from synth.pair import render_pair
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
     backend, displays, pbuffer, golden = sys.argv[1], sys.argv[2], sys.argv[3] == "1", sys.argv[4]
     if displays != "-":  # one way to get the EGL display and make the context current
@@ -112,7 +112,7 @@ _CONTEXTS = textwrap.dedent("""
     from synth.render import context as glcontext
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
     backend = sys.argv[1]
     rig = StereoRig.default(32, 24)

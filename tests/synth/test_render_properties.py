@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from scenes import TextureSpec, build_meshes, get_preset
 from synth.pair import render_pair
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 from synth.testing import preset_scenes, rendered_pairs
 
 pytestmark = pytest.mark.gl

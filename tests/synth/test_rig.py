@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from matcher.io import format_calib
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 
 def test_default_is_centred_and_scales_focal() -> None:

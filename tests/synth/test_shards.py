@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from stereoforge.errors import DatasetError
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import read_manifest, run_dataset
-from synth.dataset.shards import FIELDS
+from synth.dataset.storage.shards import FIELDS
 
 CONFIG = """\
 name = "shards"
@@ -125,7 +125,7 @@ def test_stereo_dataset_points_webdataset_to_its_reader(pair):
 def test_verify_checks_the_shards_and_the_staged_samples(pair, tmp_path):
     import shutil
 
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     out = tmp_path / "wds"
     shutil.copytree(pair[1], out)
@@ -154,7 +154,7 @@ def test_gzip_float_maps_round_trip_losslessly(pair, tmp_path):
     import webdataset as wds
 
     from matcher.io import decode_pfm, read_pfm
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.storage.integrity import verify_dataset
 
     mb, plain = pair
     cfg = loads_config(CONFIG)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from stereoforge.errors import DatasetError
-from synth.dataset.storage import FsPath, dataset_path
+from synth.dataset.storage.fs import FsPath, dataset_path
 
 _CONFIG = ("seed = 4\ncount = 3\n[rig]\nwidth = 32\nheight = 24\n[scene]\nbase = 'flying'\n"
            "[photometric]\nnoise_sigma = 2.0\n")
@@ -66,8 +66,8 @@ def test_memory_url_has_the_folder_bytes_resumes_and_verifies(tmp_path, renderer
     import fsspec
 
     import synth
-    from synth.dataset.config import loads_config
-    from synth.dataset.integrity import verify_dataset
+    from synth.dataset.config.parse import loads_config
+    from synth.dataset.storage.integrity import verify_dataset
 
     cfg = loads_config(_CONFIG)
     synth.run_dataset(cfg, tmp_path / "f", progress=False)  # the public entry point, out positional
@@ -95,7 +95,7 @@ def test_a_sample_of_a_url_dataset_is_rendered_again_from_its_manifest(tmp_path,
 
     import synth
     from synth.cli import main
-    from synth.dataset.config import loads_config
+    from synth.dataset.config.parse import loads_config
 
     synth.run_dataset(loads_config(_CONFIG), "memory://store-again", progress=False)
     try:
@@ -121,7 +121,7 @@ def test_a_sample_of_a_url_dataset_is_rendered_again_from_its_manifest(tmp_path,
 _PREIMPORTED = """
 import ray  # before the engine, without RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER: too late to keep 127.0.0.1
 from stereoforge.errors import BackendError
-from synth.dataset.engine import run_tasks
+from synth.dataset.engine.tasks import run_tasks
 
 class T:
     width, height, backend = 8, 8, "auto"
@@ -136,7 +136,7 @@ except BackendError as exc:
 
 
 def test_ray_imported_without_the_loopback_setting_is_refused_with_the_fix(require_or_skip):
-    from synth.dataset.engine import ray_available
+    from synth.dataset.engine.tasks import ray_available
 
     if not ray_available():
         require_or_skip("ray is not installed (optional extra: pip install ray)",

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from synth.jobs.study import (
+from synth.jobs.study.run import (
     COLUMNS,
     StudyConfigError,
     list_studies,
@@ -198,7 +198,7 @@ def test_study_is_deterministic_across_runs_and_workers(renderer, tiny_run, tmp_
 
 
 def test_summary_intervals_are_t_based():
-    from synth.jobs.study_report import _interval
+    from synth.jobs.study.report import _interval
 
     mean, half, n = _interval([1.0, 2.0, 3.0])
     assert (mean, n) == (2.0, 3)

@@ -9,8 +9,8 @@ import pytest
 from click.testing import CliRunner
 
 from synth.cli import main
-from synth.jobs.bench_match import bench_match
-from synth.jobs.study import run_study
+from synth.jobs.bench.match import bench_match
+from synth.jobs.study.run import run_study
 
 HERE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "user_matchers.py")
 TINY = """\
@@ -187,7 +187,7 @@ def test_study_sweeps_any_dataset_config_key(tmp_path, renderer):
     ('sweep_key = "rig.baseline", sweep_values = [0.1], frequencies_px = [0.1]', "more than one"),
 ])
 def test_a_bad_sweep_names_the_line(scene, message):
-    from synth.jobs.study import StudyConfigError, loads_study_config
+    from synth.jobs.study.run import StudyConfigError, loads_study_config
 
     text = TINY.replace('frequencies_px = [0.05, 0.15]', scene)
     with pytest.raises(StudyConfigError, match=message):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import scenes
-from synth.rig import StereoRig
-from synth.texture_control import (
+from synth.camera.rig import StereoRig
+from synth.appearance.texture_control import (
     CANNY_SETTINGS,
     SEARCH_TOL,
     edge_density,

@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import scenes
-from synth.rig import StereoRig
-from synth.texture_control import SEARCH_TOL, match_edge_density, retexture
+from synth.camera.rig import StereoRig
+from synth.appearance.texture_control import SEARCH_TOL, match_edge_density, retexture
 
 RIG = StereoRig.default(64, 48)
 

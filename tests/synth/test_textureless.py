@@ -7,10 +7,10 @@ import pytest
 import scenes
 from scenes import ObjectSpec, Pose, SceneSpec, TextureSpec
 
-from synth.dataset.config import loads_config
+from synth.dataset.config.parse import loads_config
 from synth.dataset.run import produce_sample
-from synth.rig import StereoRig
-from synth.textureless import match_textureless, object_coverage
+from synth.camera.rig import StereoRig
+from synth.appearance.textureless import match_textureless, object_coverage
 
 pytestmark = pytest.mark.gl
 

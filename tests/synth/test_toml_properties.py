@@ -1,4 +1,4 @@
-"""Properties of the TOML key locator (synth._toml): every key maps to the line it is on.
+"""Properties of the TOML key locator (synth._util.toml_lines): every key maps to the line it is on.
 
 The documents are generated with the line of every key known by construction: tables, arrays of
 tables, dotted and quoted keys, inline tables, arrays over several lines, and strings (basic,
@@ -12,7 +12,7 @@ import tomllib
 from hypothesis import given
 from hypothesis import strategies as st
 
-from synth._toml import key_lines, line_of
+from synth._util.toml_lines import key_lines, line_of
 
 # Text that a naive line matcher takes for a header or a key.
 DECOYS = ["[scene]", "[[objects]]", "occluders = 1", "k0 = 2", "[t0]", "a.b = 3", "x = { y = 1 }",

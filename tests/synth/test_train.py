@@ -28,7 +28,7 @@ from matcher import evaluate, resolve_matcher  # noqa: E402
 from matcher.learned import Architecture, PatchNet, load_model, match_learned  # noqa: E402
 from matcher.learned.model import LearnedModel  # noqa: E402
 from synth import StereoDataset  # noqa: E402
-from synth.dataset.config import loads_config  # noqa: E402
+from synth.dataset.config.parse import loads_config  # noqa: E402
 from synth.dataset.run import run_dataset  # noqa: E402
 from synth.jobs.train import PatchBatches, open_sources  # noqa: E402
 

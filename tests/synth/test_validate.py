@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from matcher.io import read_image
 from matcher.regions import REGIONS
 from synth.cli import main
-from synth.dataset.config import config_from_dict
+from synth.dataset.config.parse import config_from_dict
 from synth.validate import axes as axes_mod
 from synth.validate.axes import AXES, SUITES, Axis, axis_config, base_config, register_axis
 from synth.validate.run import COLUMNS, TIMING_COLUMNS, plan, run_validate

@@ -36,7 +36,7 @@ def bench() -> None:
                    "as each dataset worker does); 'auto' keeps the driver's one per core.")
 def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
     """Pairs per second for every preset: render + GT + masks + writing, one process."""
-    from synth.jobs.bench_render import bench_render, parse_sizes, write_table
+    from synth.jobs.bench.render import bench_render, parse_sizes, write_table
 
     if threads == "auto":
         n_threads = None
@@ -53,15 +53,15 @@ def bench_render_cmd(out, pairs, sizes, backend, threads) -> None:
 @out_dir_option(default="out/bench")
 @click.option("--repeats", default=3, show_default=True, type=click.IntRange(min=1))
 @click.option("--isa", default="native", show_default=True,
-              type=LazyChoice("synth.jobs.bench_match:ISAS"),
+              type=LazyChoice("synth.jobs.bench.match:ISAS"),
               help="avx2: also time an AVX2-only numba build (a fresh process) beside this CPU's.")
 @click.option("--matcher", "matchers", multiple=True, metavar="MATCHER",
               help="Also time this MATCHER string (NAME[:WINDOW], learned:MODEL.pt, py:..., "
                    "cmd:...); repeatable.")
 def bench_match_cmd(out, repeats, isa, matchers) -> None:
     """Census matchers against OpenCV StereoBM / StereoSGBM on the same pairs, same run."""
-    from synth.jobs.bench_match import bench_match_isas, peak_memory
-    from synth.jobs.bench_render import write_table
+    from synth.jobs.bench.match import bench_match_isas, peak_memory
+    from synth.jobs.bench.render import write_table
 
     rows = bench_match_isas(isa, repeats=repeats, matchers=matchers)
     click.echo(write_table(rows, Path(out), "match"))
@@ -84,8 +84,8 @@ def bench_match_cmd(out, repeats, isa, matchers) -> None:
 @out_dir_option(default="out/bench")
 def bench_paper_cmd(out) -> None:
     """The paper's methods (CTHW, AWCT, AWSCT) against CT/SCT at the same window, same run."""
-    from synth.jobs.bench_paper import bench_paper_methods
-    from synth.jobs.bench_render import write_table
+    from synth.jobs.bench.paper import bench_paper_methods
+    from synth.jobs.bench.render import write_table
 
     click.echo(write_table(bench_paper_methods(), Path(out), "paper"))
 
@@ -110,8 +110,8 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, eng
     With --engine ray: a local Ray on 127.0.0.1 per run, or the cluster at --address; the actors
     return the samples and this process commits them, as stereoforge dataset does (the
     driver_cpu_ms_per_pair column)."""
-    from synth.jobs.bench_dataset import bench_dataset
-    from synth.jobs.bench_render import parse_sizes, write_table
+    from synth.jobs.bench.dataset import bench_dataset
+    from synth.jobs.bench.render import parse_sizes, write_table
 
     names = [c.strip() for c in configs.split(",") if c.strip()]
     if not names:
@@ -124,7 +124,7 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, eng
                          backend=backend, progress=True, size=sizes[0], engine=engine,
                          address=address)
     click.echo(write_table(rows, Path(out), "dataset"))
-    from synth.jobs.bench_dataset import profile_dataset
+    from synth.jobs.bench.dataset import profile_dataset
 
     # where one worker's time goes, per stage (docs/scale.md builds its estimates on it)
     stages = [profile_dataset(name, count=count, backend=backend, size=sizes[0])
@@ -148,8 +148,8 @@ def bench_realism_cmd(out, config, count, data, workers, tolerance, backend) -> 
     """bad-3 of CT-9, CT-21 and SGBM-5 on synthetic pairs against the real scenes."""
     import os
 
-    from synth.jobs.bench_realism import bench_realism, format_verdict
-    from synth.jobs.bench_render import write_table
+    from synth.jobs.bench.realism import bench_realism, format_verdict
+    from synth.jobs.bench.render import write_table
 
     folder = Path(data or os.environ.get("STEREOFORGE_MIDDLEBURY") or "../shared/data/middlebury")
     if data is not None and not (folder / "third").is_dir():
@@ -178,8 +178,8 @@ def bench_realism_cmd(out, config, count, data, workers, tolerance, backend) -> 
 def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, backend,
                        skip_battery) -> None:
     """Seconds of a whole `validate` run from an empty folder (quick suite target: 120 s)."""
-    from synth.jobs.bench_render import write_table
-    from synth.jobs.bench_validate import bench_validate
+    from synth.jobs.bench.render import write_table
+    from synth.jobs.bench.validate import bench_validate
 
     workers = _worker_counts(workers_text)
     rows = bench_validate(matcher=matcher, suite=suite,
@@ -212,9 +212,9 @@ def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, 
     """Train the reference network on each config, score it on real scenes beside CT and SGBM."""
     import os
 
-    from synth.jobs.bench_render import write_table
-    from synth.jobs.bench_transfer import bench_transfer, draw_transfer
-    from synth.jobs.machine import describe_machine
+    from synth.jobs.bench.render import write_table
+    from synth.jobs.bench.transfer import bench_transfer, draw_transfer
+    from synth.jobs.bench.machine import describe_machine
 
     seeds = [s.strip() for s in seeds_text.split(",") if s.strip()]
     if not seeds or not all(s.isdigit() for s in seeds):

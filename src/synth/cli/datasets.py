@@ -28,13 +28,13 @@ __all__ = ["dataset"]
 @engine_option
 @address_option
 @click.option("--format", "fmt", default="middlebury", show_default=True,
-              type=LazyChoice("synth.formats:DATASET_FORMATS"),
+              type=LazyChoice("synth.write.formats:DATASET_FORMATS"),
               help="Sample folders (middlebury: MiddEval3, middlebury2014: the 2014 scene "
                    "archives, kitti) or tar shards (webdataset).")
 @click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
               help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
 @click.option("--disp-encoding", "disp_encoding", default=None,
-              type=LazyChoice("synth.dataset.shards:DISP_ENCODINGS"),
+              type=LazyChoice("synth.dataset.storage.shards:DISP_ENCODINGS"),
               help="How --format webdataset stores disparities and depth: pfm, or pfm.gz "
                    "(gzip, lossless) [default: pfm].")
 @backend_option
@@ -80,7 +80,7 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
         if config is not None or out is not None or verify_dir is not None:
             raise click.UsageError("--upgrade DIR converts DIR in place: drop CONFIG, --out and "
                                    "--verify")
-        from synth.dataset.layout import upgrade_dataset
+        from synth.dataset.storage.layout import upgrade_dataset
 
         moved = upgrade_dataset(upgrade)
         click.echo(f"{upgrade}: {moved} sample folders moved; layout is current")
@@ -88,7 +88,7 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
     if verify_dir is not None:
         if config is not None:
             raise click.UsageError("--verify DIR checks an existing dataset: drop CONFIG")
-        from synth.dataset.integrity import verify_dataset
+        from synth.dataset.storage.integrity import verify_dataset
 
         problems = verify_dataset(verify_dir, count=count)
         for line in problems:
@@ -101,28 +101,28 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
                                "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
     if indices is not None:  # START:STOP -> a range, checked against the count, before any work
-        from synth.dataset.config import load_config
+        from synth.dataset.config.parse import load_config
         from synth.dataset.parts import parse_indices
 
         config = load_config(config)
         indices = parse_indices(indices, config.count if count is None else count, fmt=fmt)
     if shard_size is not None:  # refused with a format without shards, before any work
-        from synth.dataset.shards import check_shard_option, parse_size
+        from synth.dataset.storage.shards import check_shard_option, parse_size
 
         shard_size = check_shard_option(fmt, parse_size(shard_size))
     if disp_encoding is not None:
-        from synth.dataset.shards import check_disp_encoding
+        from synth.dataset.storage.shards import check_disp_encoding
 
         disp_encoding = check_disp_encoding(fmt, disp_encoding)
-    from synth.kernel_cache import DATASET_KERNELS, compile_notice
+    from synth._util.kernel_cache import DATASET_KERNELS, compile_notice
 
     with compile_notice(DATASET_KERNELS, note) as cold:
         if cold:  # compile here once, before any worker: the workers then load them from the cache
-            from synth.dataset.warm import warm_sample_kernels
+            from synth.dataset.engine.warm import warm_sample_kernels
 
             warm_sample_kernels()
     if engine == "local" and workers > 1:  # the worker server imports while this process does
-        from synth.dataset.engine import start_worker_server
+        from synth.dataset.engine.tasks import start_worker_server
 
         start_worker_server(["synth.dataset.run"])  # the task's module (the server adds its own)
     from synth.dataset import run_dataset

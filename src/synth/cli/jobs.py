@@ -15,12 +15,12 @@ __all__ = ["golden", "paper", "study"]
 @click.option("--data", "data", default="../shared/data/middlebury", show_default=True,
               type=click.Path(file_okay=False, path_type=Path),
               help="Middlebury folder holding third/ and half/ scene folders.")
-@click.option("--size", default="third", show_default=True, type=LazyChoice("synth.jobs.paper:SIZES"))
+@click.option("--size", default="third", show_default=True, type=LazyChoice("synth.jobs.paper.tables:SIZES"))
 @out_dir_option()
 def paper(data, size, out) -> None:
     """Reproduce the seed paper's Tables 1-3 and figures on the real Middlebury scenes."""
-    from synth.jobs.paper import run_paper
-    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
+    from synth.jobs.paper.tables import run_paper
+    from synth._util.kernel_cache import MATCHER_KERNELS, compile_notice
 
     if not (data / size).is_dir():
         fail(FileNotFoundError(
@@ -46,11 +46,11 @@ def study(config, out, workers, backend, matchers, keep_pairs) -> None:
     Resumable: rerun the same command and only the missing cells are computed.
     """
     if workers > 1:  # the worker server imports while this process does
-        from synth.dataset.engine import start_worker_server
+        from synth.dataset.engine.tasks import start_worker_server
 
-        start_worker_server(["synth.jobs.study"])
-    from synth.jobs.study import run_study
-    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
+        start_worker_server(["synth.jobs.study.run"])
+    from synth.jobs.study.run import run_study
+    from synth._util.kernel_cache import MATCHER_KERNELS, compile_notice
 
     with compile_notice(MATCHER_KERNELS, note):  # the workers compile too: this times the parent
         path = run_study(config, out=out, workers=workers, progress=True, backend=backend,

@@ -33,8 +33,8 @@ def match_cmd(left, right, method, window, max_disp, out, lr_check, subpixel, ag
     """Match LEFT and RIGHT images and write the left disparity map to --out."""
     from matcher import match
     from matcher.io import read_image, write_pfm
-    from synth.jobs.timing import first_and_warm
-    from synth.kernel_cache import MATCHER_KERNELS, compile_notice
+    from synth.jobs.bench.timing import first_and_warm
+    from synth._util.kernel_cache import MATCHER_KERNELS, compile_notice
 
     if out.suffix.lower() != ".pfm":
         fail(ValueError(f"--out must be a .pfm file (got {out.name})"))
@@ -67,7 +67,7 @@ def _match_any(left: Path, right: Path, spec: str, max_disp: int, out: Path) -> 
     """``match --matcher``: one MATCHER string on a pair, timed warm like the built-ins."""
     from matcher.adapters import resolve_matcher
     from matcher.io import read_image, write_pfm
-    from synth.jobs.timing import first_and_warm
+    from synth.jobs.bench.timing import first_and_warm
 
     m = resolve_matcher(spec)  # a bad string or model file fails before the images are read
     left_img, right_img = read_image(left), read_image(right)

@@ -56,7 +56,7 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
            from_manifest, exposure, relight, ground_truth) -> None:
     """Render SCENE (a preset name or a .toml/.json scene file) as a labelled stereo pair."""
     from synth import StereoRig, render_pair
-    from synth.export import resolve_scene, save_pair
+    from synth.write.export import resolve_scene, save_pair
 
     if from_manifest is not None:
         from synth import render_from_manifest
@@ -71,7 +71,7 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
     kinds = ()
     if ground_truth is not None:  # checked before any work
-        from synth.ground_truth import check_ground_truth
+        from synth.write.ground_truth import check_ground_truth
 
         kinds = check_ground_truth(ground_truth, where="--ground-truth")
         if kinds and fmt == "kitti":
@@ -90,7 +90,7 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         lighting = dataclasses.replace(spec, light=light, lamps=lamps)
     extra = None
     if kinds:
-        from synth.ground_truth import render_ground_truth
+        from synth.write.ground_truth import render_ground_truth
         from synth.render import Renderer
 
         with Renderer(rig.width, rig.height, backend=backend) as renderer:

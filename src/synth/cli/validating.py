@@ -141,7 +141,7 @@ def validate(ctx, matcher, out, suite, against, workers, timeout, axes, real, ba
         fail(ValueError("--fail-on regression compares with a baseline: give --baseline DIR "
                         "(a finished validate folder)"))
     if workers > 1:  # the worker server imports while this process does
-        from synth.dataset.engine import start_worker_server
+        from synth.dataset.engine.tasks import start_worker_server
 
         start_worker_server(["synth.validate.run", "synth.validate.pairs", "synth.pair"])
     from synth.validate.axes import AXES

@@ -274,7 +274,7 @@ def compare_datasets(a: str | Path, b: str | Path) -> list[Difference]:
     ----------
     a, b : str or Path
         Two folders (datasets made by :func:`synth.dataset.run.run_dataset`, ``render``
-        outputs, ...), or fsspec URLs of datasets (:mod:`synth.dataset.storage`).
+        outputs, ...), or fsspec URLs of datasets (:mod:`synth.dataset.storage.fs`).
 
     Returns
     -------
@@ -301,7 +301,7 @@ def compare_datasets(a: str | Path, b: str | Path) -> list[Difference]:
     content | calib.txt: line 1 differs: b'ndisp=64' vs b'ndisp=65'
     encoding | im0.png: the same pixels, encoded differently (... and ... bytes)
     """
-    from synth.dataset.storage import dataset_path
+    from synth.dataset.storage.fs import dataset_path
 
     roots = [dataset_path(x) for x in (a, b)]
     for name, root in zip("ab", roots):

@@ -23,16 +23,16 @@ import numpy as np
 from matcher.io import load_kitti_2015, load_middlebury_2014, read_pfm
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_choice, check_real
-from synth._json import read_json_object
-from synth.dataset.layout import KITTI_TRAINING, check_layout, sample_dir
-from synth.dataset.manifest import MODIFIED_FIX, read_manifest
-from synth.formats import FORMATS, MIDDLEBURY_LAYOUTS
+from synth._util.json_records import read_json_object
+from synth.dataset.storage.layout import KITTI_TRAINING, check_layout, sample_dir
+from synth.dataset.storage.manifest import MODIFIED_FIX, read_manifest
+from synth.write.formats import FORMATS, MIDDLEBURY_LAYOUTS
 
 __all__ = ["StereoDataset", "SPLITS", "is_validation"]
 
 #: Accepted ``split`` values.
 SPLITS = ("all", "train", "val")
-_SEED_RANGE = 2**63  # sample seeds are uint64 >> 1 (synth.dataset.sampling.sample_seed)
+_SEED_RANGE = 2**63  # sample seeds are uint64 >> 1 (synth.dataset.config.sampling.sample_seed)
 
 
 def is_validation(seed: int, val_fraction: float) -> bool:
@@ -60,7 +60,7 @@ def _png(path: Path) -> np.ndarray:
 
 
 def _optional_ground_truth(folder: Path) -> dict[str, np.ndarray]:
-    """The optional ground truth of a sample folder (``synth.ground_truth``), when written."""
+    """The optional ground truth of a sample folder (``synth.write.ground_truth``), when written."""
     out: dict[str, np.ndarray] = {}
     if (folder / "depth0.pfm").is_file():
         out["depth"] = read_pfm(folder / "depth0.pfm").astype(np.float32, copy=False)
@@ -107,7 +107,7 @@ class StereoDataset:
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
     - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm`` or
-      ``disp1.pfm``), and the optional ground truth of :mod:`synth.ground_truth`: ``depth``
+      ``disp1.pfm``), and the optional ground truth of :mod:`synth.write.ground_truth`: ``depth``
       ((H, W) float32 metres), ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16),
       ``semantic`` ((H, W) uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels
       hidden in the left).

@@ -42,7 +42,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from stereoforge.errors import DatasetError, ParameterError, ParameterTypeError
-from synth.dataset.storage import FsPath, is_local
+from synth.dataset.storage.fs import FsPath, is_local
 
 __all__ = ["HEADER_BYTE", "RunLock", "check_indices", "is_part", "lock_run", "parse_indices"]
 

@@ -17,11 +17,11 @@ Layout of a dataset directory ``out/``::
 Guarantees (see ``docs/datasets.md``):
 
 - sample ``i`` depends only on the configuration and ``i`` (its seed is
-  :func:`synth.dataset.sampling.sample_seed`), so its files are byte-identical whatever the number of
-  workers, the engine or the order;
+  :func:`synth.dataset.config.sampling.sample_seed`), so its files are byte-identical whatever
+  the number of workers, the engine or the order;
 - a sample is written into ``.NNNNNN.tmp-<pid>/`` and renamed to its folder (above; see
-  :mod:`synth.dataset.layout`); its completion record ``records/NNNNNN.json`` (every file with
-  size and SHA-256, :mod:`synth.dataset.integrity`) is written last.
+  :mod:`synth.dataset.storage.layout`); its completion record ``records/NNNNNN.json`` (every
+  file with size and SHA-256, :mod:`synth.dataset.storage.integrity`) is written last.
   A run killed at any point and restarted skips the samples whose record exists and whose files
   have the recorded sizes, renders the others again (an emptied folder, a truncated file) and
   ends with the same bytes as an uninterrupted run;
@@ -34,7 +34,7 @@ Guarantees (see ``docs/datasets.md``):
 
 The run, its resume and its manifests live here; one sample's production and the per-sample task
 are :mod:`synth.dataset.sample`, the commit of a rendered sample (rename, completion record,
-returned bytes) :mod:`synth.dataset.commit`.
+returned bytes) :mod:`synth.dataset.storage.commit`.
 """
 
 from __future__ import annotations
@@ -45,34 +45,35 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 
-from synth._json import json_bytes, read_json_object
+from synth._util.json_records import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
-from synth.dataset.commit import commit_files, commit_returned
-from synth.dataset.config import DatasetConfig, config_from_dict, load_config
-from synth.dataset.engine import check_engine, run_tasks
-from synth.dataset.integrity import sample_problems
-from synth.dataset.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
-                                  sample_parent, write_scene_list)
-from synth.dataset.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
+from synth.dataset.storage.commit import commit_files, commit_returned
+from synth.dataset.config.parse import DatasetConfig, config_from_dict, load_config
+from synth.dataset.engine.tasks import check_engine, run_tasks
+from synth.dataset.storage.integrity import sample_problems
+from synth.dataset.storage.layout import (LAYOUT_VERSION, check_layout, record_path, sample_dir,
+                                          sample_parent, write_scene_list)
+from synth.dataset.storage.manifest import MODIFIED_FIX, manifest_bytes, read_manifest
 from synth.dataset.parts import check_indices, is_part, lock_run
-from synth.dataset.ray_driver import ray_connection
+from synth.dataset.engine.ray_driver import ray_connection
 from synth.dataset.sample import SampleError, SampleTask, produce_sample, render_draw
-from synth.dataset.sampling import sample_seed
-from synth.dataset.shards import ShardWriter, check_disp_encoding, check_shard_option
-from synth.dataset.storage import FsPath, dataset_path, is_local, remove_tree, write_bytes
-from synth.export import staged_output_dir
-from synth.formats import DATASET_FORMATS
-from synth.progress import progress as progress_bar
-from synth.texture_control import CANNY_SETTINGS
+from synth.dataset.config.sampling import sample_seed
+from synth.dataset.storage.shards import ShardWriter, check_disp_encoding, check_shard_option
+from synth.dataset.storage.fs import FsPath, dataset_path, is_local, remove_tree, write_bytes
+from synth.write.export import staged_output_dir
+from synth.write.formats import DATASET_FORMATS
+from synth._util.progress import progress as progress_bar
+from synth.appearance.texture_control import CANNY_SETTINGS
 
 # SampleError, SampleTask, produce_sample, render_draw (synth.dataset.sample) and the commit
-# functions (synth.dataset.commit) are re-exported: the run's public surface stays in one place
+# functions (synth.dataset.storage.commit) are re-exported: the run's public surface stays in one
+# place
 __all__ = ["DatasetError", "SampleError", "DatasetRun", "SampleTask", "produce_sample", "run_dataset",
            "render_from_manifest", "read_manifest", "render_draw", "commit_files",
            "commit_returned"]
 
 #: Version of the sample bytes: 2 since the photometric noise is drawn by quantile lookup
-#: (``synth.photometric.gaussian_noise``); a dataset of another version is not resumed.
+#: (``synth.appearance.photometric.gaussian_noise``); a dataset of another version is not resumed.
 _FORMAT_VERSION = 2
 _TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
 _HEADER_KEYS = {"config": dict, "format": str}
@@ -84,7 +85,7 @@ class DatasetRun:
 
     Attributes
     ----------
-    out : Path or synth.dataset.storage.FsPath
+    out : Path or synth.dataset.storage.fs.FsPath
         The dataset's folder, or its location on an fsspec filesystem.
     count : int
         Samples the dataset holds (``0 .. count - 1``).
@@ -97,8 +98,9 @@ class DatasetRun:
     damaged : tuple of (int, tuple of str)
         The rendered samples that were there but damaged or incomplete (a truncated or missing
         file, an emptied folder, no or an unreadable completion record), in index order, each
-        with what was wrong: one line a file (:func:`synth.dataset.integrity.sample_problems`),
-        or one for an emptied folder. Samples never rendered before are not in it.
+        with what was wrong: one line a file
+        (:func:`synth.dataset.storage.integrity.sample_problems`), or one for an emptied folder.
+        Samples never rendered before are not in it.
     """
 
     out: Path | FsPath
@@ -214,7 +216,7 @@ def run_dataset(
         Dataset directory: new, empty, or holding a (partial) dataset of the same config and
         format, which is completed. A local path, a ``file://`` URL or any fsspec URL
         (``memory://``, ``s3://bucket/prefix`` with s3fs, ``gs://`` with gcsfs: needs
-        ``pip install 'stereoforge[storage]'``; see :mod:`synth.dataset.storage`).
+        ``pip install 'stereoforge[storage]'``; see :mod:`synth.dataset.storage.fs`).
     count : int, optional
         Samples ``0 .. count - 1`` (default: the config's ``count``).
     workers : int
@@ -227,8 +229,9 @@ def run_dataset(
         (and an existing dataset as it was).
     fmt : {"middlebury", "middlebury2014", "kitti", "webdataset"}
         ``middlebury``: MiddEval3 scene folders, ``middlebury2014``: the 2014 scene archives'
-        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames (:mod:`synth.dataset.layout`);
-        ``webdataset``: tar shards (:mod:`synth.dataset.shards`).
+        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames
+        (:mod:`synth.dataset.storage.layout`); ``webdataset``: tar shards
+        (:mod:`synth.dataset.storage.shards`).
     progress : bool
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}
@@ -256,11 +259,11 @@ def run_dataset(
         or a part whose ``indices`` overlap).
     BackendError
         ``engine="ray"``: the cluster cannot be reached or joined, or no worker could start
-        (:data:`synth.dataset.ray_driver.RAY_STALL_TIMEOUT_S`); the samples finished stay.
+        (:data:`synth.dataset.engine.ray_driver.RAY_STALL_TIMEOUT_S`); the samples finished stay.
     SampleError
         A sample failed (its index and seed are in the message); the samples completed before
         stay, and the manifest lists them.
-    synth.dataset.config.ConfigError
+    synth.dataset.config.parse.ConfigError
         The configuration is invalid (file, line, allowed values).
 
     Examples
@@ -364,8 +367,8 @@ def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path
     dataset (Middlebury: ``im0.png ...``; KITTI: ``training/image_2/NNNNNN_10.png ...``) plus
     ``scene.json`` and ``sample.json``. A non-empty ``out`` is refused unless ``overwrite``.
     The files are written into a temporary folder beside ``out`` and renamed into place when all
-    are written (:func:`synth.export.staged_output_dir`): a failure (disk full, a failed render)
-    leaves ``out`` as it was, and a rerun into it works.
+    are written (:func:`synth.write.export.staged_output_dir`): a failure (disk full, a failed
+    render) leaves ``out`` as it was, and a rerun into it works.
 
     Returns
     -------

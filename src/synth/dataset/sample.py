@@ -2,8 +2,8 @@
 
 :func:`produce_sample` turns sample ``index`` of a configuration into its files in a folder
 (its bytes depend only on the configuration and ``index``); :class:`SampleTask` is the picklable
-job the engines (:mod:`synth.dataset.engine`) run on each worker, committing the sample
-(:mod:`synth.dataset.commit`) or returning its bytes to the driver.
+job the engines (:mod:`synth.dataset.engine.tasks`) run on each worker, committing the sample
+(:mod:`synth.dataset.storage.commit`) or returning its bytes to the driver.
 """
 
 from __future__ import annotations
@@ -20,11 +20,11 @@ import numpy as np
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
-from synth._json import json_bytes
-from synth.dataset.commit import commit_local, dataset_files, returned_files, write_record
-from synth.dataset.config import DatasetConfig, config_from_dict
-from synth.dataset.integrity import completion_record
-from synth.dataset.sampling import (
+from synth._util.json_records import json_bytes
+from synth.dataset.storage.commit import commit_local, dataset_files, returned_files, write_record
+from synth.dataset.config.parse import DatasetConfig, config_from_dict
+from synth.dataset.storage.integrity import completion_record
+from synth.dataset.config.sampling import (
     STREAM_EXPOSURE_NOISE,
     STREAM_LIGHTING_NOISE,
     STREAM_PHOTOMETRIC,
@@ -34,9 +34,9 @@ from synth.dataset.sampling import (
     sample_seed,
     stream,
 )
-from synth.export import write_pair
-from synth.photometric import apply_photometric
-from synth.texture_control import edge_density, match_edge_density
+from synth.write.export import write_pair
+from synth.appearance.photometric import apply_photometric
+from synth.appearance.texture_control import edge_density, match_edge_density
 
 __all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw"]
 
@@ -57,8 +57,8 @@ class SampleError(StereoforgeError, RuntimeError):
 def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
                  ) -> tuple[Any, float]:
     """The scene with objects made constant toward ``textureless_area`` (stream 5 orders them),
-    and its measured textureless fraction (:mod:`synth.textureless`)."""
-    from synth.textureless import match_textureless, object_coverage
+    and its measured textureless fraction (:mod:`synth.appearance.textureless`)."""
+    from synth.appearance.textureless import match_textureless, object_coverage
 
     rig = config.rig
     coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)
@@ -152,8 +152,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
                fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
                preview=config.preview, fsync=False)
-    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.ground_truth)
-        from synth.ground_truth import render_ground_truth, write_ground_truth
+    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.write.ground_truth)
+        from synth.write.ground_truth import render_ground_truth, write_ground_truth
 
         write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
                                                      renderer=renderer), fsync=False)
@@ -163,13 +163,13 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
 
 
 class SampleTask:
-    """Picklable per-sample job (see :mod:`synth.dataset.engine`).
+    """Picklable per-sample job (see :mod:`synth.dataset.engine.tasks`).
 
     With ``out`` a local folder the worker writes and commits the sample itself and returns its
     record. With ``out=None`` it writes nothing where the driver writes: it renders into a
     temporary folder of its own machine and returns ``(record, files)``, ``files`` mapping each
     path in the dataset (the completion record included) to its bytes, for the driver to
-    :func:`~synth.dataset.storage.commit_sample` (Ray workers, URL outputs: no shared
+    :func:`~synth.dataset.storage.fs.commit_sample` (Ray workers, URL outputs: no shared
     filesystem assumed).
     """
 

@@ -6,12 +6,12 @@ from pathlib import Path
 
 
 from scenes import list_presets
-from synth.export import resolve_scene, staged_output_dir, write_pair
-from synth.progress import progress as progress_bar
+from synth.write.export import resolve_scene, staged_output_dir, write_pair
+from synth._util.progress import progress as progress_bar
 from synth.pair import render_pair
-from synth.preview import contact_sheet
+from synth.write.preview import contact_sheet
 from synth.render.renderer import Renderer
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = ["run_demo"]
 
@@ -32,7 +32,7 @@ def run_demo(
     ----------
     out : str or Path
         Output directory; must be empty unless ``overwrite``. Written as a whole
-        (:func:`synth.export.staged_output_dir`): a failed demo leaves it as it was.
+        (:func:`synth.write.export.staged_output_dir`): a failed demo leaves it as it was.
     width, height : int
         Image size of every pair.
     seed : int

@@ -1,7 +1,8 @@
 """``stereoforge eval-dataset``: score any matcher on a dataset folder or a study's kept pairs.
 
-The pairs are read through the dataset's manifest (:func:`synth.dataset.manifest.read_manifest`:
-every ``MiddEval3/trainingF/NNNNNN/sample.json``, ``2014/NNNNNN/sample.json`` or
+The pairs are read through the dataset's manifest
+(:func:`synth.dataset.storage.manifest.read_manifest`: every
+``MiddEval3/trainingF/NNNNNN/sample.json``, ``2014/NNNNNN/sample.json`` or
 ``training/samples/NNNNNN/sample.json``), so a folder of ``stereoforge dataset`` (``--format
 middlebury``, ``middlebury2014`` or ``kitti``, as its ``dataset.json`` says) and the ``pairs/``
 folder of ``stereoforge study --keep-pairs`` (or the study folder itself) all work. A Middlebury
@@ -9,10 +10,10 @@ sample folder is a MiddEval3 scene (``im0.png``, ``im1.png``, ``disp0GT.pfm``, `
 the ground truth is ``disp0.pfm`` in the 2014 layout); a KITTI sample is frame ``NNNNNN_10`` of
 ``training/`` (``image_2``, ``image_3``, ``disp_occ_0``, ``disp_noc_0``: the regions' occluded
 pixels are those with ``disp_occ_0`` but no ``disp_noc_0``). Regions: the ``mask_<region>.png``
-files where present (validate's pairs), else ``all``, ``nonocc`` and ``occluded``.
-``max_disparity`` per sample: the option if given, else the sample's ``params.max_disparity`` (a
-study's), else ``calib.txt``'s ``ndisp`` (Middlebury), else (KITTI) the ground truth's largest
-value + 1 rounded up to a multiple of 16, as the Middlebury writer's ``ndisp``.
+files where present (validate's pairs), else ``all``, ``nonocc`` and ``occluded``. ``max_disparity``
+per sample: the option if given, else the sample's ``params.max_disparity`` (a study's), else
+``calib.txt``'s ``ndisp`` (Middlebury), else (KITTI) the ground truth's largest value + 1 rounded up
+to a multiple of 16, as the Middlebury writer's ``ndisp``.
 
 Outputs in ``out`` (default ``DIR/eval/<matcher>-<hash8>``): ``NNNNNN.pfm`` estimates and
 ``results.csv`` (:data:`COLUMNS`); the scores are :func:`matcher.regions.region_scores`.
@@ -34,7 +35,7 @@ COLUMNS = ("matcher", "index", "dir", "region", "bad_0_5", "bad_1", "bad_2", "ba
 
 
 def _root(folder: Path) -> tuple[Path, list[dict]]:
-    from synth.dataset.manifest import read_manifest
+    from synth.dataset.storage.manifest import read_manifest
 
     for root in (folder, folder / "pairs"):
         if root.is_dir():
@@ -57,8 +58,8 @@ def _load(root: Path, fmt: str, rec: dict) -> tuple:
     import numpy as np
 
     from matcher.io import GT_FILES, load_kitti_2015, read_calib, read_image, read_pfm
-    from synth.dataset.layout import sample_dir
-    from synth.formats import KITTI_ROOT, MIDDLEBURY_LAYOUTS
+    from synth.dataset.storage.layout import sample_dir
+    from synth.write.formats import KITTI_ROOT, MIDDLEBURY_LAYOUTS
 
     index = rec["index"]
     try:
@@ -94,8 +95,8 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.adapters import resolve_matcher
     from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
-    from synth.dataset.layout import dataset_format
-    from synth.formats import FORMATS
+    from synth.dataset.storage.layout import dataset_format
+    from synth.write.formats import FORMATS
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing

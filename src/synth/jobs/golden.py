@@ -26,7 +26,7 @@ same bytes) and reports what changed. Layout::
 
     golden/manifest.json              versions, GL strings, rig, seeds, cases, tolerances, sha256
     golden/README.md                  this layout and the commands
-    golden/<scene>/im0.png ... calib.txt, scene.json      (synth.export.write_pair)
+    golden/<scene>/im0.png ... calib.txt, scene.json      (synth.write.export.write_pair)
     golden/<scene>/expected/<method>-w<window>.pfm        matcher output, float32
     golden/<scene>/expected/metrics.json                  metrics + operation counts per case
 
@@ -52,7 +52,7 @@ from matcher import match
 from matcher.io import atomic_write_bytes, decode_pfm, encode_pfm, load_middlebury_2014, read_pfm
 from matcher.metrics import evaluate
 from stereoforge.errors import FormatError, StereoforgeError
-from synth._json import loads_json_object, read_json_object
+from synth._util.json_records import loads_json_object, read_json_object
 from synth.jobs.golden_compare import (
     TOLERANCES,
     RenderDiff,
@@ -61,7 +61,7 @@ from synth.jobs.golden_compare import (
     image_stats,
     records_differ,
 )
-from synth.rig import StereoRig
+from synth.camera.rig import StereoRig
 
 __all__ = [
     "GOLDEN_SCENES", "GOLDEN_CASES", "GOLDEN_RIG", "MAX_DISPARITY", "DELTA", "TOLERANCES",
@@ -224,7 +224,7 @@ def generate_golden(*, backend: str = "auto") -> dict[str, bytes]:
     Deterministic: the same package versions and GL renderer give the same bytes.
     """
     from scenes import get_preset
-    from synth.export import write_pair
+    from synth.write.export import write_pair
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
 

@@ -16,7 +16,7 @@ import numpy as np
 if TYPE_CHECKING:
     import trimesh
 
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
 __all__ = ["DEFAULT_LIGHT", "DISPLAY_GAMMA", "Mesh", "as_meshes", "check_depth_range",
            "prepare_mesh", "texture_array"]

@@ -42,7 +42,7 @@ from synth.render.labels import LabelPass
 from synth.render.passes import GLScene, Passes
 
 if TYPE_CHECKING:
-    from synth.rig import StereoRig
+    from synth.camera.rig import StereoRig
 
 __all__ = ["GLBackendError", "Renderer", "ViewRender", "ViewLabels", "BACKENDS", "resolve_backend"]
 
@@ -148,7 +148,7 @@ class Renderer:
     Examples
     --------
     >>> import trimesh
-    >>> from synth.rig import StereoRig
+    >>> from synth.camera.rig import StereoRig
     >>> quad = trimesh.Trimesh([[-1, -1, 2], [1, -1, 2], [1, 1, 2], [-1, 1, 2]],
     ...                        [[0, 1, 2], [0, 2, 3]], process=False)
     >>> rig = StereoRig.default(32, 24)
@@ -235,7 +235,7 @@ class Renderer:
 
         Examples
         --------
-        >>> from synth.rig import StereoRig
+        >>> from synth.camera.rig import StereoRig
         >>> from scenes import get_preset
         >>> t = {}
         >>> with Renderer(32, 24) as r, r.pass_timings(t):
@@ -330,7 +330,7 @@ class Renderer:
     def _view(self, scene: Any, rig: StereoRig, eye: str) -> Iterator[GLScene]:
         """The checked arguments of one view: ``scene`` uploaded, its depth range checked, the
         context current and the framebuffers of the rig's size."""
-        from synth.rig import StereoRig
+        from synth.camera.rig import StereoRig
 
         self._check_open()
         if not isinstance(rig, StereoRig):

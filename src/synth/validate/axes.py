@@ -1,8 +1,8 @@
 """The axes of ``stereoforge validate``: one-parameter sweeps of a fixed base dataset config.
 
-Every pair of a validation is one sample of a dataset configuration (:mod:`synth.dataset.config`,
-the same schema as ``stereoforge dataset``): :func:`base_config` for the suite, with **one**
-value changed by an axis. An :class:`Axis` says how a value changes it:
+Every pair of a validation is one sample of a dataset configuration
+(:mod:`synth.dataset.config.parse`, the same schema as ``stereoforge dataset``): :func:`base_config`
+for the suite, with **one** value changed by an axis. An :class:`Axis` says how a value changes it:
 
 - ``key``: a dataset-config key ``"section.key"`` (``"photometric.noise_sigma"``,
   ``"rig.baseline"``, ...) set to the value; or ``config``, a function editing the config dict
@@ -140,7 +140,7 @@ def _slant(scene: Any, rig: Any, degrees: float) -> Any:
     """One textured plane through (baseline / 2, 0, 2.5 m) turned by ``degrees`` about the
     vertical axis (0 = fronto-parallel), cut to cover both views with a margin."""
     from scenes import ObjectSpec, Pose
-    from synth.texture_control import retexture
+    from synth.appearance.texture_control import retexture
 
     theta = math.radians(float(degrees))
     x0, z0 = rig.baseline / 2, 2.5

@@ -55,7 +55,7 @@ def run_record(*, matcher: str, references: Sequence[str], suite: str, axes: Seq
                real: Sequence[str], pairs: dict[str, str], estimates: dict[str, str]) -> bytes:
     """The bytes of ``run.json``: ``pairs`` maps pair folders to their digest
     (:func:`synth.validate.pairs.folder_digest`), ``estimates`` matchers to their folder."""
-    from synth._json import json_bytes
+    from synth._util.json_records import json_bytes
 
     return json_bytes({"version": _VERSION, "matcher": matcher, "references": list(references),
                        "suite": suite, "axes": list(axes), "real": list(real),

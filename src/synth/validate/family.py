@@ -3,7 +3,7 @@
 A suite's seed ``k`` takes member ``k mod len(FAMILY)`` of :data:`FAMILY` and draws that member's
 free choices (how many occluders and where they sit, which texture, which photographs) from
 ``numpy.random.default_rng(k)``; the preset's own seed and the occluders' positions then come
-from the sample's seed, as in any dataset (:mod:`synth.dataset.sampling`). The result is the
+from the sample's seed, as in any dataset (:mod:`synth.dataset.config.sampling`). The result is the
 ``[scene]`` table of a dataset config with **fixed values only** (no distribution of the
 parameter stream), so an axis that sets one key changes that key and no other draw.
 

@@ -1,15 +1,15 @@
 """The pairs of a validation: one folder per axis x value x seed, rendered once, verified on reuse.
 
 A pair folder ``pairs/<axis>/<value>_s<seed>/`` is a Middlebury 2014 scene folder
-(:func:`synth.export.write_pair`: ``im0.png``, ``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``,
-``calib.txt``, ``scene.json``) plus the region masks ``mask_<region>.png`` (uint8, 255 = in the
-region; :func:`matcher.regions.region_masks` of the exact ground truth and the noise-free left
-image), ``sample.json`` (axis, value, seed, the seed's base scene, ``max_disparity``, drawn
-parameters, region sizes and the fingerprint of everything that determines the pair) and,
-written last, ``files.json`` (size and SHA-256 of every file). The folder is built under a
-temporary name and renamed (:func:`commit_pair_folder`, which the real scenes of
-:mod:`synth.validate.real` share), so it exists only whole; a rerun reuses it when its
-fingerprint matches and every checksum verifies (:func:`verify_pair_folder`).
+(:func:`synth.write.export.write_pair`: ``im0.png``, ``im1.png``, ``disp0GT.pfm``,
+``mask0nocc.png``, ``calib.txt``, ``scene.json``) plus the region masks ``mask_<region>.png``
+(uint8, 255 = in the region; :func:`matcher.regions.region_masks` of the exact ground truth and the
+noise-free left image), ``sample.json`` (axis, value, seed, the seed's base scene,
+``max_disparity``, drawn parameters, region sizes and the fingerprint of everything that determines
+the pair) and, written last, ``files.json`` (size and SHA-256 of every file). The folder is built
+under a temporary name and renamed (:func:`commit_pair_folder`, which the real scenes of
+:mod:`synth.validate.real` share), so it exists only whole; a rerun reuses it when its fingerprint
+matches and every checksum verifies (:func:`verify_pair_folder`).
 """
 
 from __future__ import annotations
@@ -91,11 +91,11 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     """Sample ``seed`` of a dataset config (dict form), with ``scene_hook(scene, rig, value)``
     applied to its drawn scene: ``(pair, images, scene, draw)``, ``pair`` the exact render,
     ``images`` after the config's photometric models (as ``stereoforge dataset`` draws them)."""
-    from synth.dataset.config import config_from_dict
-    from synth.dataset.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
+    from synth.dataset.config.parse import config_from_dict
+    from synth.dataset.config.sampling import STREAM_PHOTOMETRIC, draw_sample, stream
     from synth.dataset.sample import render_draw
-    from synth.photometric import apply_photometric
-    from synth.texture_control import match_edge_density
+    from synth.appearance.photometric import apply_photometric
+    from synth.appearance.texture_control import match_edge_density
 
     config = config_from_dict(config_dict, source="sweep")
     draw = draw_sample(config, seed)
@@ -124,7 +124,7 @@ def commit_pair_folder(out: Path, folder: str, write: Callable[[Path], None],
     """
     from matcher.io import atomic_write_bytes, encode_png
     from matcher.regions import REGIONS
-    from synth.dataset.integrity import completion_record
+    from synth.dataset.storage.integrity import completion_record
 
     final = out / folder
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
@@ -152,7 +152,7 @@ def commit_pair_folder(out: Path, folder: str, write: Callable[[Path], None],
 def render_pair_folder(spec: PairSpec, out: Path, renderer: Any) -> dict:
     """Render ``spec`` and write its folder under ``out`` atomically; return its sample record."""
     from matcher.regions import region_masks
-    from synth.export import write_pair
+    from synth.write.export import write_pair
     from synth.validate.axes import get_axis
     from synth.validate.family import member_name
 
@@ -180,7 +180,7 @@ def record_digest(folder: Path) -> str:
 def folder_digest(folder: Path) -> str | None:
     """SHA-256 of a pair folder's ``files.json`` when every file of the folder verifies
     against it (the same names, sizes and SHA-256); None otherwise."""
-    from synth.dataset.integrity import completion_record
+    from synth.dataset.storage.integrity import completion_record
 
     try:
         stored = (folder / RECORD).read_bytes()

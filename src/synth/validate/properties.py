@@ -410,7 +410,7 @@ def _run_property(prop: Property, call: _Caller, cfg: dict) -> tuple[_Outcome, i
 
 
 def _save_counterexample(folder: Path, images: dict[str, np.ndarray], rel: Path) -> list[str]:
-    from synth.preview import colorize_disparity
+    from synth.write.preview import colorize_disparity
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = []

@@ -113,7 +113,8 @@ def plan(suite: str, axes: Sequence[str] | None = None) -> list:
 
 
 class _PairTask:
-    """Picklable job of :func:`synth.dataset.engine.run_tasks`: render pair ``index`` of a plan."""
+    """Picklable job of :func:`synth.dataset.engine.tasks.run_tasks`: render pair ``index`` of a
+    plan."""
 
     preload = ("synth.validate.pairs", "synth.pair")
 
@@ -213,8 +214,8 @@ def _pairs(specs: list, out: Path, suite: str, backend: str, workers: int, progr
     """Every pair folder of ``specs`` ready under ``out``: verified and reused, copied from the
     baseline ``base`` (if any), made (real scenes, in this process) or rendered (``workers``
     GL processes). ``({index: sample record}, rendered or made, copied)``."""
-    from synth.dataset.engine import run_tasks
-    from synth.progress import progress as progress_bar
+    from synth.dataset.engine.tasks import run_tasks
+    from synth._util.progress import progress as progress_bar
     from synth.validate.axes import SUITES
     from synth.validate.baseline import adopt_pairs
     from synth.validate.pairs import PairSpec, verify_pair_folder
@@ -294,7 +295,7 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     from synth.validate.axes import AXES
     from synth.validate.baseline import (RUN_RECORD, adopt_estimates, baseline_label,
                                          check_same_pairs, load_run, run_record)
-    from synth.progress import progress as progress_bar
+    from synth._util.progress import progress as progress_bar
     from synth.validate.differences import difference_table, differences_csv
     from synth.validate.pairs import record_digest
     from synth.validate.real import resolve_real

@@ -119,7 +119,7 @@ def _identity_collate(batch):
 def _worker_init(_worker_id: int) -> None:
     # Ctrl-C and SIGTERM are the main process's to handle: it stops after the step in
     # progress, writes the checkpoint and shuts the workers down
-    from synth.dataset.engine import die_with_parent
+    from synth.dataset.engine.tasks import die_with_parent
 
     die_with_parent()  # a killed trainer leaves no worker behind
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -386,7 +386,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
     bar = None
     loader = iter(())
     try:
-        from synth.progress import progress
+        from synth._util.progress import progress
 
         bar = progress(total=cfg.steps if cfg.steps is not None else int(budget), initial=0,
                        desc="train", unit="step" if cfg.steps is not None else "s",

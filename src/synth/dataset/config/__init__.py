@@ -1,0 +1,14 @@
+"""What a dataset is: its configuration file, every key of it, and what sample ``i`` draws.
+
+- :mod:`synth.dataset.config.parse` — the configuration (TOML/JSON): the parser,
+  :class:`~synth.dataset.config.parse.DatasetConfig`, the distributions.
+- :mod:`synth.dataset.config.keys` — every key of a configuration: sections, types, bounds, docs
+  (the schema).
+- :mod:`synth.dataset.config.sampling` — what sample ``i`` draws (seeded by ``i``): the sample
+  seed, the drawn parameters and the scene.
+
+The shipped configurations are the TOML files of ``synth/dataset/configs/`` (data, beside this
+package). Nothing is imported here (the public names are :mod:`synth.dataset`'s).
+"""
+
+__all__: list[str] = []

@@ -1,0 +1,192 @@
+"""Completion records of dataset samples, and the check of a whole dataset against them.
+
+A sample is complete when its record ``records/NNNNNN.json`` exists and every file it lists has the
+listed size (and, when checked, SHA-256). The record is written last, once the sample's temporary
+directory has been renamed into place: it never lists a file that was not fully written. It sits
+outside the folders the stereo tools read (:mod:`synth.dataset.storage.layout`). Paths in a record
+are relative to the dataset directory (``MiddEval3/trainingF/000003/im0.png``; the KITTI layout:
+``training/image_2/000003_10.png``, ``training/samples/000003/scene.json``)::
+
+    {"files": {"MiddEval3/trainingF/000003/calib.txt": {"bytes": 190, "sha256": "9f1c..."}, ...},
+     "index": 3}
+
+A resumed run checks sizes (cheap: one ``stat`` per file) and renders again every sample whose
+record is missing, unreadable or contradicted; :func:`verify_dataset` (``stereoforge dataset
+--verify DIR``) also checks the SHA-256 of every file and reports holes and extra files.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+from stereoforge.errors import DatasetError
+from synth._util.json_records import json_bytes
+from synth.dataset.storage.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
+                                          check_layout, dataset_format, record_path, sample_dir,
+                                          sample_parent, tools_root)
+from synth.dataset.storage.manifest import manifest_bytes, read_manifest
+from synth.dataset.storage.shards import read_index, sha256
+from synth.dataset.storage.fs import dataset_path
+
+__all__ = ["completion_record", "sample_problems", "verify_dataset"]
+
+_TMP_DIR = re.compile(r"^\.\d{6}\.tmp-\d+$")
+
+
+def _shard_problems(root: Path, shards: list[dict], checksums: bool) -> list[str]:
+    problems = []
+    for s in shards:
+        path = root / str(s.get("name"))
+        if not path.is_file():
+            problems.append(f"{path.name}: missing (listed in shards.json)")
+        elif path.stat().st_size != s.get("bytes"):
+            problems.append(f"{path.name}: {path.stat().st_size} bytes, shards.json says "
+                            f"{s.get('bytes')} bytes (truncated or replaced)")
+        elif checksums and sha256(path) != s.get("sha256"):
+            problems.append(f"{path.name}: SHA-256 differs from shards.json (corrupt)")
+    return problems
+
+
+def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
+    """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs."""
+    entries = {name: {"bytes": path.stat().st_size, "sha256": sha256(path)}
+               for name, path in sorted(files)}
+    return json_bytes({"files": entries, "index": index})
+
+
+def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:
+    """The files a sample's record lists, or ``None`` and why there is no usable record."""
+    path = record_path(root, index)
+    try:
+        record = json.loads(path.read_bytes())
+        files = record["files"]
+        if record["index"] != index or not isinstance(files, dict) or not all(
+                isinstance(e, dict) and isinstance(e.get("bytes"), int)
+                and isinstance(e.get("sha256"), str) for e in files.values()):
+            raise ValueError("unexpected content")
+    except FileNotFoundError:
+        return None, f"{index:06d}: no completion record ({RECORDS}/{path.name}); the sample " \
+                     "is incomplete"
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return None, f"{path}: unreadable completion record ({type(exc).__name__}: {exc})"
+    return files, None
+
+
+def sample_problems(root: Path, fmt: str, index: int, *, checksums: bool = False) -> list[str]:
+    """What is wrong with sample ``index`` of the dataset of format ``fmt`` in ``root`` (empty:
+    complete).
+
+    Sizes are always checked; the SHA-256 of every file too when ``checksums``.
+    """
+    if not sample_dir(root, fmt, index).is_dir():
+        return [f"{index:06d}: missing"]
+    files, why = _listed(root, index)
+    if files is None:
+        return [why]
+    problems = []
+    for name, entry in files.items():
+        path = root / name
+        try:
+            size = path.stat().st_size
+        except OSError:
+            problems.append(f"{name}: missing (listed in {RECORDS}/{index:06d}.json)")
+            continue
+        if size != entry["bytes"]:
+            problems.append(f"{name}: {size} bytes, its record says {entry['bytes']} bytes "
+                            "(truncated or replaced)")
+        elif checksums and sha256(path) != entry["sha256"]:
+            problems.append(f"{name}: SHA-256 differs from its record (corrupt)")
+    return problems
+
+
+def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
+                   checksums: bool = True) -> list[str]:
+    """Problems of a whole dataset, one line each: holes, incomplete or corrupt samples, extra
+    files, a stale manifest. Empty when the dataset is whole.
+
+    Parameters
+    ----------
+    dataset_dir : str or Path
+        A directory made by :func:`synth.dataset.run.run_dataset`.
+    count : int, optional
+        Samples ``0 .. count - 1`` are expected (default: up to the highest index present).
+    checksums : bool
+        Also compare the SHA-256 of every file with its record (default); else sizes only.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> verify_dataset(tempfile.mkdtemp())[0]
+    '...: no dataset.json; not a dataset directory (made by run_dataset)'
+    """
+    root = dataset_path(dataset_dir)  # a folder or an fsspec URL (synth.dataset.storage.fs)
+    if not (root / "dataset.json").is_file():
+        return [f"{root}: no dataset.json; not a dataset directory (made by run_dataset)"]
+    check_layout(root)  # the previous layout: one error naming `stereoforge dataset --upgrade`
+    fmt = dataset_format(root)
+    parent = sample_parent(root, fmt)
+    folders = {int(d.name) for d in parent.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name)} \
+        if parent.is_dir() else set()
+    shards = read_index(root) if fmt == "webdataset" else []
+    packed = {int(r["index"]) for s in shards for r in s["records"]}
+    present = sorted(folders | packed)
+    last = max(present, default=-1) if count is None else count - 1
+    problems: list[str] = _shard_problems(root, shards, checksums)
+    listed: set[str] = set()
+    for index in sorted(set(range(last + 1)) | set(present)):
+        if index in packed and index not in folders:
+            continue  # in a complete shard, checked above
+        found = sample_problems(root, fmt, index, checksums=checksums)
+        if found == [f"{index:06d}: missing"]:
+            found = [f"{index:06d}: missing (a hole: the dataset has samples after it)"
+                     if count is None else f"{index:06d}: missing (count is {count})"]
+        problems += found
+        files, _ = _listed(root, index) if index in folders else (None, None)
+        listed |= set(files or ())
+        if files is None and index in folders:  # reported above; its files are not extra
+            folder = sample_dir(root, fmt, index)
+            listed |= {p.relative_to(root).as_posix() for p in folder.rglob("*")}
+    if fmt == "middlebury":
+        listed.add(f"{MIDDEVAL_ROOT}/{SCENE_LIST}")
+    tools = tools_root(root, fmt)
+    if tools.is_dir():  # every file under the tools' folder belongs to a sample's record
+        problems += [f"{rel}: extra file (no sample's record lists it)"
+                     for rel in (p.relative_to(root).as_posix()
+                                 for p in sorted(tools.rglob("*")) if p.is_file())
+                     if rel not in listed]
+    if (root / RECORDS).is_dir():
+        problems += [f"{RECORDS}/{p.name}: record of no sample folder (sample "
+                     f"{p.stem} is missing)" if SAMPLE_DIR.match(p.stem) and p.suffix == ".json"
+                     else f"{RECORDS}/{p.name}: extra file"
+                     for p in sorted((root / RECORDS).iterdir())
+                     if not (SAMPLE_DIR.match(p.stem) and p.suffix == ".json"
+                             and int(p.stem) in folders)]
+    for entry in sorted(root.iterdir()):
+        if entry.name in METADATA or (entry.is_dir() and entry.name in (
+                RECORDS, tools.name)) or entry.name in {s["name"] for s in shards}:
+            continue
+        if _TMP_DIR.match(entry.name):
+            problems.append(f"{entry.name}: stale temporary directory of an interrupted run "
+                            "(the next run removes it)")
+        else:
+            problems.append(f"{entry.name}: extra {'directory' if entry.is_dir() else 'file'}")
+    try:
+        records = read_manifest(root)
+    except DatasetError as exc:  # a sample.json that is not JSON: reported above, by its file
+        return [*problems, f"manifest.jsonl, manifest.csv: not checked ({exc})"]
+    jsonl, table = manifest_bytes(records)
+    for name, want in (("manifest.jsonl", jsonl), ("manifest.csv", table)):
+        path = root / name
+        if not path.is_file() or path.read_bytes() != want:
+            problems.append(f"{name}: does not match the samples' sample.json (rerun the "
+                            "dataset command to rewrite it)")
+    if fmt == "middlebury":
+        scenes = root / MIDDEVAL_ROOT / SCENE_LIST
+        want = "".join(f"{r['dir']}\n" for r in records)
+        if not scenes.is_file() or scenes.read_text() != want:
+            problems.append(f"{MIDDEVAL_ROOT}/{SCENE_LIST}: does not list the complete samples "
+                            "(rerun the dataset command to rewrite it)")
+    return problems
