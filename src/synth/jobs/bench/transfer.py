@@ -89,7 +89,10 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
     the wall time recorded beside it (``MODEL.pt.wall``)."""
     wall_file = Path(f"{model}.wall")
     if model.is_file():
-        wall = float(wall_file.read_text()) if wall_file.is_file() else None
+        try:
+            wall = float(wall_file.read_text())
+        except (OSError, ValueError):  # none (a model from elsewhere) or not a number
+            wall = None
         say(f"  {model.name}: reused" + (f" (wall {wall:.0f} s)" if wall is not None else ""))
         return {"model": str(model), "wall_s": wall, "reused": True}
     boot = ("from synth.dataset.engine.tasks import die_with_parent; die_with_parent(); "
