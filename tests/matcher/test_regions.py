@@ -60,6 +60,27 @@ def test_scores_count_missing_estimates_as_bad_and_errors_over_estimated_pixels(
     assert all(v is None for v in region_scores(est, gt, np.zeros((1, 4), bool)).values())
 
 
+def test_an_error_equal_to_the_threshold_is_good_as_in_middlebury():
+    # errors of exactly 0.5, 1, 2 and 4 (all exact in binary): Middlebury's bad-x is |err| > x
+    gt = np.ones((1, 4))
+    est = np.array([[1.5, 2.0, 3.0, 5.0]])
+    s = region_scores(est, gt, np.ones((1, 4), bool))
+    assert (s["bad_0_5"], s["bad_1"], s["bad_2"], s["bad_4"]) == (0.75, 0.5, 0.25, 0.0)
+    # a hair above the threshold is bad
+    above = region_scores(np.array([[2.0 + 1e-9]]), np.ones((1, 1)), np.ones((1, 1), bool))
+    assert above["bad_1"] == 1.0 and above["bad_2"] == 0.0
+
+
+def test_a50_a90_a99_are_quantiles_of_the_absolute_error():
+    # errors 0, 1, ..., 100 over the estimated pixels (one missing pixel is left out of them)
+    err = np.arange(101, dtype=np.float64)
+    gt = np.zeros((1, 102))
+    est = np.concatenate([-err[::2], err[1::2], [np.inf]])[None]
+    s = region_scores(est, gt, np.ones((1, 102), bool))
+    assert (s["a50"], s["a90"], s["a99"]) == (50.0, 90.0, 99.0)
+    assert s["avgerr"] == 50.0
+
+
 def test_occlusion_from_two_ground_truths_is_a_left_right_check():
     # a fronto-parallel object (d = 6) in front of a background (d = 2), 4 px wide
     w = 24
