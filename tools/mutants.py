@@ -293,7 +293,7 @@ MUTANTS += (
 _SCORES = ("tests/matcher/test_regions.py", "tests/matcher/test_benchmarks.py",
            "tests/matcher/test_metrics.py", "tests/matcher/test_metrics_properties.py",
            "src/matcher/regions.py", "src/matcher/benchmarks.py", "src/matcher/metrics.py")
-_ADAPTERS = ("tests/matcher/test_adapters.py", "src/matcher/adapters.py")
+_ADAPTERS = ("tests/matcher/test_adapters.py", "src/matcher/adapters.py", "src/matcher/processes.py")
 # test_cli's match tests read golden/, which the copy does not hold: the render commands only
 _EXPORT = ("tests/synth/test_export.py", "tests/synth/test_cli.py", "-k", "render or obj_map or staged")
 
@@ -335,14 +335,14 @@ MUTANTS += (
     ),
     Mutant(
         "OpenCV fixed-point 0 taken as no estimate",
-        "src/matcher/adapters.py",
+        "src/matcher/processes.py",
         (("out[raw < 0] = np.inf", "out[raw <= 0] = np.inf"),),
         "an int16 compute() result of 0 (disparity 0) becomes inf; only negatives are no estimate",
         _ADAPTERS,
     ),
     Mutant(
         "OpenCV float 0 taken as no estimate",
-        "src/matcher/adapters.py",
+        "src/matcher/processes.py",
         (("out[out < 0] = np.inf", "out[out <= 0] = np.inf"),),
         "a float compute() result of 0.0 becomes inf",
         _ADAPTERS,

@@ -11,7 +11,7 @@ Layout (each module imports only the ones above it in this list)::
     census  cost  select  haar  edges  metrics   building blocks
     cthw  adaptive                               the seed paper's methods
     match                                        the dispatcher over every method
-    regions  adapters                            validation regions; any matcher behind one string
+    regions  failures  processes  adapters       validation regions; any matcher behind one string
 """
 
 from matcher.adapters import Matcher, MatcherError, MatcherFailure, MatcherOutcome, resolve_matcher
