@@ -18,7 +18,8 @@ Usage::
     .venv/bin/python tools/mutants.py --under src/synth --under src/scenes   # synth and scenes
 
 It is slow (each mutant recompiles the numba kernels it uses; the synth mutants render): about
-a minute per mutant on 2 cores. It does not run in CI.
+a minute per mutant on 2 cores, 51 minutes for all 43 (every one killed). It does not
+run in CI.
 """
 
 from __future__ import annotations
