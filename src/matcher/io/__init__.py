@@ -1,12 +1,31 @@
 """Every stereo file format, read and write, one module per format (see ``docs/formats.md``):
 PFM (:mod:`~matcher.io.pfm`), PNG images and disparities (:mod:`~matcher.io.png`), ``calib.txt``
 (:mod:`~matcher.io.calib`), the Middlebury 2005/2006 and 2014 layouts
-(:mod:`~matcher.io.middlebury`), KITTI 2015 (:mod:`~matcher.io.kitti`), Middlebury ``.flo`` flow (:mod:`~matcher.io.flo`), and atomic file writes
+(:mod:`~matcher.io.middlebury`), KITTI 2015 (:mod:`~matcher.io.kitti`), Middlebury ``.flo`` flow
+(:mod:`~matcher.io.flo`), the disparity PNGs of CREStereo (:mod:`~matcher.io.crestereo`) and
+FoundationStereo's FSD (:mod:`~matcher.io.fsd`), and atomic file writes
 (:mod:`~matcher.io.atomic`). The writers take arrays and plain values."""
 
 from matcher.io.atomic import atomic_write_bytes, save_figure_atomic, write_all_atomic
 from matcher.io.calib import CALIB_KEYS, format_calib, parse_calib, read_calib
+from matcher.io.crestereo import (
+    CRESTEREO_MAX,
+    CRESTEREO_SCALE,
+    check_crestereo_range,
+    decode_crestereo_disparity,
+    encode_crestereo_disparity,
+    read_crestereo_disparity,
+)
 from matcher.io.flo import FloError, decode_flo, encode_flo, read_flo, write_flo
+from matcher.io.fsd import (
+    FSD_BASE,
+    FSD_MAX,
+    FSD_SCALE,
+    check_fsd_range,
+    decode_fsd_disparity,
+    encode_fsd_disparity,
+    read_fsd_disparity,
+)
 from matcher.io.kitti import (
     KITTI_MAX_DISPARITY,
     encode_kitti_disparity,
@@ -50,8 +69,13 @@ from matcher.io.sample import StereoSample, check_stereo_images
 
 __all__ = [
     "CALIB_KEYS",
+    "CRESTEREO_MAX",
+    "CRESTEREO_SCALE",
     "DEFLATE",
     "DEFLATES",
+    "FSD_BASE",
+    "FSD_MAX",
+    "FSD_SCALE",
     "FloError",
     "GREY_DEFLATE",
     "GT_FILES",
@@ -63,12 +87,18 @@ __all__ = [
     "REQUIRED_CALIB_KEYS",
     "StereoSample",
     "atomic_write_bytes",
+    "check_crestereo_range",
+    "check_fsd_range",
     "check_stereo_images",
+    "decode_crestereo_disparity",
     "decode_disparity_png",
     "decode_flo",
+    "decode_fsd_disparity",
     "decode_pfm",
     "deflate_for",
+    "encode_crestereo_disparity",
     "encode_flo",
+    "encode_fsd_disparity",
     "encode_kitti_disparity",
     "encode_pfm",
     "encode_png",
@@ -81,8 +111,10 @@ __all__ = [
     "parse_calib",
     "parse_kitti_calib",
     "read_calib",
+    "read_crestereo_disparity",
     "read_disparity",
     "read_flo",
+    "read_fsd_disparity",
     "read_grey_image",
     "read_image",
     "read_kitti_calib",
