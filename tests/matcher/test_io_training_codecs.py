@@ -1,5 +1,5 @@
 """Hand-picked examples for the codecs of the training layouts: CREStereo's and FSD's disparity
-PNGs (``matcher.io.crestereo``, ``matcher.io.fsd``).
+PNGs (``matcher.io.crestereo``, ``matcher.io.fsd``) and 4:4:4 JPEG (``matcher.io.jpeg``).
 
 Property companions (``test_io_training_codecs_properties.py``): each ``*_round_trip*``,
 ``*_refuses*`` and ``*_corrupt*`` test here pairs with the property of the same subject there.
@@ -22,12 +22,14 @@ from matcher.io import (
     CRESTEREO_MAX,
     CRESTEREO_SCALE,
     FSD_MAX,
+    JPEG_MIN_QUALITY,
     check_crestereo_range,
     check_fsd_range,
     decode_crestereo_disparity,
     decode_fsd_disparity,
     encode_crestereo_disparity,
     encode_fsd_disparity,
+    encode_jpeg,
     encode_png,
     read_crestereo_disparity,
     read_fsd_disparity,
@@ -271,12 +273,82 @@ def test_disparity_pngs_are_the_same_bytes_in_another_process():
     of FSD is deflated by libdeflate, whose bytes do not depend on the CPU or the process)."""
     code = (
         "import sys, numpy as np\n"
-        "from matcher.io import encode_crestereo_disparity, encode_fsd_disparity\n"
+        "from matcher.io import encode_crestereo_disparity, encode_fsd_disparity, encode_jpeg\n"
         "d = np.linspace(0.5, 900.0, 48 * 64).reshape(48, 64)\n"
-        "sys.stdout.buffer.write(encode_crestereo_disparity(d) + b'|' + encode_fsd_disparity(d))\n"
+        "img = (np.arange(48 * 64 * 3) % 251).astype(np.uint8).reshape(48, 64, 3)\n"
+        "sys.stdout.buffer.write(encode_crestereo_disparity(d) + b'|' + encode_fsd_disparity(d)"
+        " + b'|' + encode_jpeg(img))\n"
     )
     d = np.linspace(0.5, 900.0, 48 * 64).reshape(48, 64)
-    here = encode_crestereo_disparity(d) + b"|" + encode_fsd_disparity(d)
-    assert here == encode_crestereo_disparity(d) + b"|" + encode_fsd_disparity(d)
+    img = (np.arange(48 * 64 * 3) % 251).astype(np.uint8).reshape(48, 64, 3)
+    here = encode_crestereo_disparity(d) + b"|" + encode_fsd_disparity(d) + b"|" + encode_jpeg(img)
+    assert here == encode_crestereo_disparity(d) + b"|" + encode_fsd_disparity(d) + b"|" + encode_jpeg(img)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, check=True)
     assert out.stdout == here
+
+
+# --- JPEG ------------------------------------------------------------------------------------
+
+def _sof_sampling(jpg: bytes) -> list[int]:
+    """The sampling byte of each component of the (single) baseline SOF0 frame."""
+    pos = 2
+    while pos < len(jpg):
+        assert jpg[pos] == 0xFF
+        marker, (length,) = jpg[pos + 1], struct.unpack(">H", jpg[pos + 2:pos + 4])
+        if marker == 0xC0:
+            n = jpg[pos + 9]
+            return [jpg[pos + 10 + 3 * k + 1] for k in range(n)]
+        assert marker not in (0xC1, 0xC2, 0xDA), f"marker {marker:#x} before SOF0"
+        pos += 2 + length
+    raise AssertionError("no SOF0 marker")
+
+
+def _textured(h=48, w=64, seed=1):
+    rng = np.random.default_rng(seed)
+    img = cv2.GaussianBlur(rng.random((h, w, 3)), (0, 0), 1.0) * 255
+    img[10:30, 20:40] = (230, 20, 40)  # a saturated block: chroma edges that 4:2:0 would blur
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def test_jpeg_is_baseline_4_4_4_and_close_to_the_image():
+    img = _textured()
+    for quality in (95, 98, 100):
+        jpg = encode_jpeg(img, quality=quality)
+        assert jpg[:2] == b"\xff\xd8" and jpg[-2:] == b"\xff\xd9"
+        assert _sof_sampling(jpg) == [0x11, 0x11, 0x11]  # 1x1 each: no chroma subsampling
+        back = cv2.imdecode(np.frombuffer(jpg, np.uint8), cv2.IMREAD_COLOR)[..., ::-1]  # RGB
+        diff = np.abs(back.astype(int) - img)
+        assert diff.mean() < {95: 2.5, 98: 1.5, 100: 0.6}[quality], (quality, diff.mean())
+    grey = img[..., 0].copy()
+    jpg = encode_jpeg(grey)
+    assert _sof_sampling(jpg) == [0x11]
+    assert cv2.imdecode(np.frombuffer(jpg, np.uint8), cv2.IMREAD_UNCHANGED).shape == grey.shape
+
+
+def test_jpeg_keeps_colour_edges_sharper_than_4_2_0():
+    img = _textured()
+    ours = cv2.imdecode(np.frombuffer(encode_jpeg(img), np.uint8), cv2.IMREAD_COLOR)[..., ::-1]
+    bgr = np.ascontiguousarray(img[..., ::-1])
+    sub = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, 95, cv2.IMWRITE_JPEG_SAMPLING_FACTOR,
+                                     cv2.IMWRITE_JPEG_SAMPLING_FACTOR_420])[1]
+    theirs = cv2.imdecode(sub, cv2.IMREAD_COLOR)[..., ::-1]
+    assert np.abs(ours.astype(int) - img).mean() < np.abs(theirs.astype(int) - img).mean()
+
+
+@pytest.mark.parametrize("image, kwargs, error, message", [
+    (np.zeros((4, 4, 3), np.uint8), {"quality": 94}, ParameterError,
+     "quality: expected an integer in [95, 100], got 94; lower qualities blur texture"),
+    (np.zeros((4, 4, 3), np.uint8), {"quality": 101}, ParameterError, "got 101"),
+    (np.zeros((4, 4, 3), np.uint8), {"quality": 95.0}, ParameterTypeError, "got float 95.0"),
+    (np.zeros((4, 4, 3), np.float32), {}, ParameterTypeError,
+     "image: expected a uint8 image, got dtype float32; convert with np.clip"),
+    (np.zeros((4, 4, 4), np.uint8), {}, ParameterError,
+     "image: expected shape (H, W) or (H, W, 3) (RGB), got (4, 4, 4); drop an alpha channel"),
+    (np.zeros((0, 4, 3), np.uint8), {}, ParameterError, "image: expected a non-empty image"),
+    (np.zeros((1, 65501), np.uint8), {}, ParameterError, "sides <= 65500"),
+])
+def test_jpeg_refuses_bad_input(image, kwargs, error, message):
+    with pytest.raises(error) as info:
+        encode_jpeg(image, **kwargs)
+    assert message in str(info.value)
+    assert JPEG_MIN_QUALITY == 95

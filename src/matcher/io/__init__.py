@@ -3,8 +3,8 @@ PFM (:mod:`~matcher.io.pfm`), PNG images and disparities (:mod:`~matcher.io.png`
 (:mod:`~matcher.io.calib`), the Middlebury 2005/2006 and 2014 layouts
 (:mod:`~matcher.io.middlebury`), KITTI 2015 (:mod:`~matcher.io.kitti`), Middlebury ``.flo`` flow
 (:mod:`~matcher.io.flo`), the disparity PNGs of CREStereo (:mod:`~matcher.io.crestereo`) and
-FoundationStereo's FSD (:mod:`~matcher.io.fsd`), and atomic file writes
-(:mod:`~matcher.io.atomic`). The writers take arrays and plain values."""
+FoundationStereo's FSD (:mod:`~matcher.io.fsd`), 4:4:4 JPEG images (:mod:`~matcher.io.jpeg`), and
+atomic file writes (:mod:`~matcher.io.atomic`). The writers take arrays and plain values."""
 
 from matcher.io.atomic import atomic_write_bytes, save_figure_atomic, write_all_atomic
 from matcher.io.calib import CALIB_KEYS, format_calib, parse_calib, read_calib
@@ -26,6 +26,7 @@ from matcher.io.fsd import (
     encode_fsd_disparity,
     read_fsd_disparity,
 )
+from matcher.io.jpeg import JPEG_MAX_SIDE, JPEG_MIN_QUALITY, encode_jpeg
 from matcher.io.kitti import (
     KITTI_MAX_DISPARITY,
     encode_kitti_disparity,
@@ -80,6 +81,8 @@ __all__ = [
     "GREY_DEFLATE",
     "GT_FILES",
     "GT_NAMES",
+    "JPEG_MAX_SIDE",
+    "JPEG_MIN_QUALITY",
     "KITTI_DIVISOR",
     "KITTI_MAX_DISPARITY",
     "PFMError",
@@ -99,6 +102,7 @@ __all__ = [
     "encode_crestereo_disparity",
     "encode_flo",
     "encode_fsd_disparity",
+    "encode_jpeg",
     "encode_kitti_disparity",
     "encode_pfm",
     "encode_png",
