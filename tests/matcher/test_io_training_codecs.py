@@ -1,5 +1,6 @@
 """Hand-picked examples for the codecs of the training layouts: CREStereo's and FSD's disparity
-PNGs (``matcher.io.crestereo``, ``matcher.io.fsd``) and 4:4:4 JPEG (``matcher.io.jpeg``).
+PNGs (``matcher.io.crestereo``, ``matcher.io.fsd``), 4:4:4 JPEG (``matcher.io.jpeg``) and the PFM
+header the SceneFlow layout needs.
 
 Property companions (``test_io_training_codecs_properties.py``): each ``*_round_trip*``,
 ``*_refuses*`` and ``*_corrupt*`` test here pairs with the property of the same subject there.
@@ -30,6 +31,7 @@ from matcher.io import (
     encode_crestereo_disparity,
     encode_fsd_disparity,
     encode_jpeg,
+    encode_pfm,
     encode_png,
     read_crestereo_disparity,
     read_fsd_disparity,
@@ -352,3 +354,16 @@ def test_jpeg_refuses_bad_input(image, kwargs, error, message):
         encode_jpeg(image, **kwargs)
     assert message in str(info.value)
     assert JPEG_MIN_QUALITY == 95
+
+
+# --- PFM for the SceneFlow layout ---------------------------------------------------------
+
+def test_pfm_header_is_exactly_pf_w_h_minus_1_and_nothing_follows_the_data():
+    disp = np.array([[1.0, 2.5, INF, 4.0, 5.0], [6.0, 7.0, 8.0, np.nan, 10.0],
+                     [11.0, 12.0, 13.0, 14.0, 15.5]], np.float32)
+    data = encode_pfm(disp)
+    header = b"Pf\n5 3\n-1\n"
+    assert data[:len(header)] == header
+    assert len(data) == len(header) + 4 * disp.size  # nothing after the data
+    body = np.frombuffer(data[len(header):], "<f4").reshape(3, 5)
+    np.testing.assert_array_equal(body[::-1].view(np.uint32), disp.view(np.uint32))  # bottom row first
