@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     )
     from synth.camera.lens import Defocus, Distortion, RigErrors
     from synth.write.export import OutputDirError, write_pair
-    from synth.write.formats import FORMATS
+    from synth.formats import FORMATS
     from synth.pair import StereoPair, occlusion_mask, render_pair
     from synth.appearance.photometric import PhotometricPair, PhotometricParams, apply_photometric
     from synth.render import BACKENDS, GLBackendError, Renderer, ViewRender, resolve_backend
@@ -55,7 +55,7 @@ _EXPORTS = {
     "DatasetRun": "synth.dataset",
     "Defocus": "synth.camera.lens",
     "Distortion": "synth.camera.lens",
-    "FORMATS": "synth.write.formats",
+    "FORMATS": "synth.formats",
     "GLBackendError": "synth.render",
     "OutputDirError": "synth.write.export",
     "PhotometricPair": "synth.appearance.photometric",

@@ -90,3 +90,54 @@ def renderer(require_or_skip):
         require_or_skip(f"no OpenGL backend: {exc}", env="STEREOFORGE_REQUIRE_GL")
     with r:
         yield r
+
+
+#: The training layouts' test datasets: FlyingThings3D's size, every photometric model (so the
+#: clean and final passes differ), occluders (so there are occlusions and no-ground-truth pixels).
+TRAINING_CONFIG = """\
+name = "layouts"
+seed = 11
+count = {count}
+
+[rig]
+width = {width}
+height = {height}
+
+[scene]
+base = {{choice = ["boxes", "flying", "slanted_plane"]}}
+occluders = {{uniform = [1, 3]}}
+
+[photometric]
+noise_sigma = {{uniform = [1.0, 3.0]}}
+gain = {{uniform = [0.9, 1.1]}}
+bias = {{uniform = [-5.0, 5.0]}}
+"""
+
+
+@pytest.fixture(scope="session")
+def training_layouts(renderer, tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Path]:
+    """``make(name)`` -> a dataset folder: ``sceneflow`` (24 samples at 960x540, the size the
+    codebases assume), its ``middlebury`` twin and ``middlebury-clean`` (the same config without
+    the photometric models: the clean pass); ``crestereo``, ``fsd`` and their ``middlebury-small``
+    twin (8 samples at 320x240). Each is rendered once per session, when first asked for."""
+    from synth.dataset.config.parse import loads_config
+    from synth.dataset.run import run_dataset
+
+    made: dict[str, Path] = {}
+    base = tmp_path_factory.mktemp("layouts")
+
+    def make(name: str) -> Path:
+        if name not in made:
+            big = name in ("sceneflow", "middlebury", "middlebury-clean")
+            text = TRAINING_CONFIG.format(count=24 if big else 8, width=960 if big else 320,
+                                          height=540 if big else 240)
+            if name == "middlebury-clean":
+                text = text[:text.index("[photometric]")]
+            fmt = name.split("-")[0]
+            out = base / name
+            run_dataset(loads_config(text, source=f"{name}.toml"), out=out, fmt=fmt,
+                         workers=2, progress=False)
+            made[name] = out
+        return made[name]
+
+    return make

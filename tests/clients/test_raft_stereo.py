@@ -218,3 +218,83 @@ def test_raft_middlebury_2014_loader_reads_a_rendered_pair(raft, renderer, tmp_p
     assert not np.isfinite(load_middlebury_2014(scenes[str(card)]).disp_left).all()
     loader = datasets.Middlebury(None, root=str(root), split="2014")
     _check_2014_scenes(loader, frame_utils, list(scenes.values()))
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_raft_sceneflow_loader_lists_and_reads_our_sceneflow_layout(raft, training_layouts):
+    """RAFT-Stereo's ``SceneFlowDatasets`` (root ``OUT/SceneFlow``) over a 24-sample 960x540
+    ``--format sceneflow`` dataset: both ``dstype``s list the 21 TRAIN samples, ``things_test``
+    the 3 TEST ones (``index % 25 >= 21``), and every image and disparity it returns is bit for
+    bit the default layout's (``frames_finalpass``: the config's images; ``frames_cleanpass``:
+    the same config without its photometric models); a RAFT-style masked loss on a batch is
+    finite."""
+    from synth.formats.sceneflow import place
+
+    datasets, frame_utils = raft
+    root = training_layouts("sceneflow") / "SceneFlow"
+    references = {"frames_finalpass": training_layouts("middlebury"),
+                  "frames_cleanpass": training_layouts("middlebury-clean")}
+    by_path = {}
+    for index in range(24):
+        split, letter, sequence, frame = place(index)
+        by_path[(split, f"{letter}/{sequence:04d}/left/{frame:04d}.png")] = index
+    for dstype, reference in references.items():
+        for things_test, split, count in ((False, "TRAIN", 21), (True, "TEST", 3)):
+            loader = datasets.SceneFlowDatasets(None, root=str(root), dstype=dstype,
+                                                things_test=things_test)
+            assert len(loader) == count
+            flows, valids = [], []
+            for k in range(count):
+                paths, img1, img2, flow, valid = loader[k]
+                rel = Path(paths[0]).relative_to(root / "FlyingThings3D" / dstype / split)
+                index = by_path[(split, rel.as_posix())]
+                scene = reference / "MiddEval3" / "trainingF" / f"{index:06d}"
+                ours = load_middlebury_2014(scene)
+                assert paths[1] == paths[0].replace("/left/", "/right/")
+                np.testing.assert_array_equal(np.transpose(img1, (1, 2, 0)), ours.left)
+                np.testing.assert_array_equal(np.transpose(img2, (1, 2, 0)), ours.right)
+                gt = load_middlebury_2014(references["frames_finalpass"] / "MiddEval3" /
+                                          "trainingF" / f"{index:06d}")  # the same geometry
+                np.testing.assert_array_equal(-flow[0], gt.disp_left)  # inf stays inf
+                np.testing.assert_array_equal(valid.astype(bool), np.isfinite(gt.disp_left))
+                assert valid.astype(bool).any()
+                right = paths[2].replace("/left/", "/right/")
+                np.testing.assert_array_equal(frame_utils.readPFM(right), gt.disp_right)
+                flows.append(flow)
+                valids.append(valid)
+            # RAFT-Stereo's sequence_loss: |prediction - flow| over valid (>= 0.5) pixels
+            flow, valid = np.stack(flows), np.stack(valids)
+            prediction = np.zeros_like(flow)
+            loss = np.abs(prediction - flow)[np.broadcast_to(valid[:, None] >= 0.5, flow.shape)]
+            assert loss.size and np.isfinite(loss).all() and np.isfinite(loss.mean())
+
+
+@pytest.mark.gl
+def test_raft_sceneflow_loader_masks_pixels_without_ground_truth(raft, renderer, tmp_path):
+    """A SceneFlow pair with pixels without ground truth (``inf`` in both PFMs): RAFT-Stereo's
+    loader reads them as invalid (``|flow| < 512`` is false), and its masked loss stays finite."""
+    import dataclasses
+
+    from scenes import get_preset
+    from synth.camera.rig import StereoRig
+    from synth.pair import render_pair
+    from synth.write.export import write_pair
+
+    datasets, _ = raft
+    pair = render_pair(get_preset("boxes", seed=2), StereoRig.default(160, 120), renderer=renderer)
+    hole = np.zeros(pair.disp_left.shape, bool)
+    hole[:10, :40] = True
+    pair = dataclasses.replace(pair, disp_left=np.where(hole, np.inf, pair.disp_left),
+                               disp_right=np.where(hole, np.inf, pair.disp_right),
+                               mask_left=np.where(hole, 0, pair.mask_left).astype(np.uint8))
+    write_pair(pair, tmp_path, scene=get_preset("boxes", seed=2), seed=2, fmt="sceneflow",
+               index=21, preview=False, fsync=False)  # sample 21: TEST/A/0000/left/0000.png
+    loader = datasets.SceneFlowDatasets(None, root=str(tmp_path / "SceneFlow"),
+                                        dstype="frames_finalpass", things_test=True)
+    assert len(loader) == 1
+    _, _, _, flow, valid = loader[0]
+    np.testing.assert_array_equal(valid.astype(bool), ~hole)
+    assert np.isinf(flow[0][hole]).all()
+    loss = np.abs(np.zeros_like(flow) - flow)[valid[None] >= 0.5]
+    assert loss.size == (~hole).sum() and np.isfinite(loss).all()

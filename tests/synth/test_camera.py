@@ -134,7 +134,7 @@ def test_a_dataset_of_real_cameras_refuses_the_kitti_layout_before_rendering(tmp
     from synth.dataset import run_dataset
 
     cfg = loads_config("[rig]\nwidth = 64\nheight = 48\nright_rz_deg = 0.5\n", source="r.toml")
-    with pytest.raises(DatasetError, match=r"^r.toml: .*flow0.flo.*KITTI layout cannot hold; "
+    with pytest.raises(DatasetError, match=r"^r.toml: .*flow0.flo.*KITTI 2015 layout cannot hold; "
                                            r"use --format middlebury"):
         run_dataset(cfg, out=tmp_path / "ds", count=1, fmt="kitti", progress=False)
     assert not (tmp_path / "ds").exists()

@@ -147,3 +147,22 @@ def test_ray_imported_without_the_loopback_setting_is_refused_with_the_fix(requi
     assert out.returncode == 0, out.stderr[-2000:]
     assert "a local Ray is on the loopback" in out.stdout
     assert "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0" in out.stdout
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("fmt", ["sceneflow", "crestereo", "fsd"])
+def test_a_training_layout_on_a_url_has_the_folder_bytes(tmp_path, renderer, fmt):
+    """The files a layout places outside the sample folder (SceneFlow's tree, CREStereo's and
+    FSD's) travel as returned bytes, as from Ray workers, and land at their paths."""
+    import fsspec
+
+    import synth
+    from synth.dataset.config.parse import loads_config
+    from synth.dataset.storage.integrity import verify_dataset
+
+    cfg = loads_config(_CONFIG)
+    synth.run_dataset(cfg, tmp_path / "f", fmt=fmt, progress=False)
+    synth.run_dataset(cfg, f"memory://store-{fmt}", fmt=fmt, progress=False)
+    assert _memory(f"store-{fmt}") == _folder(tmp_path / "f")
+    assert verify_dataset(f"memory://store-{fmt}") == []
+    fsspec.filesystem("memory").rm(f"/store-{fmt}", recursive=True)

@@ -121,8 +121,8 @@ def test_kitti_and_middeval3_layouts_use_their_own_masks(tiny_suite, middlebury_
 
 def test_bad_real_specs_are_one_error_line(tmp_path):
     for spec, message in (
-            ("flickr:cats", "expected middlebury:DIR[:DIVISOR], kitti:DIR[:FIRST-LAST] or "
-                            "skimage:motorcycle"),
+            ("flickr:cats", "expected middlebury:DIR[:DIVISOR], kitti:DIR[:FIRST-LAST], "
+                            "skimage:motorcycle, sceneflow:DIR, crestereo:DIR or fsd:DIR"),
             (f"middlebury:{tmp_path / 'absent'}", "is not a folder"),
             (f"middlebury:{tmp_path}", "no Middlebury scene in"),
             (f"kitti:{tmp_path}", "is not a KITTI 2015 training folder (no image_2/)"),

@@ -30,6 +30,11 @@ class StereoSample:
     mask_left : (H, W) uint8 array or None
         Occlusion mask of the left view (255 visible in both, 128 occluded, 0 no ground truth),
         when the dataset provides one.
+    calib : dict or None
+        ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (metres), when known.
+    flow_left : (H, W, 2) float32 array or None
+        The exact 2-D flow of the left view to the right one (a rig with camera errors), NaN
+        where unknown, when the dataset holds it.
     """
 
     left: np.ndarray
@@ -39,6 +44,8 @@ class StereoSample:
     name: str
     meta: dict = field(default_factory=dict)
     mask_left: np.ndarray | None = None
+    calib: dict | None = None
+    flow_left: np.ndarray | None = None
 
 
 def require_dir(path: Path, what: str) -> None:

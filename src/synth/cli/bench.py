@@ -100,11 +100,14 @@ def bench_paper_cmd(out) -> None:
               help="Comma-separated worker counts; efficiency is relative to the first.")
 @click.option("--size", "size_text", default=None, metavar="WxH",
               help="Render at this size instead of each config's (e.g. 960x540, FlyingThings3D's).")
+@click.option("--format", "formats_text", default="middlebury", show_default=True,
+              help="Comma-separated layouts to write, each measured in the same run (e.g. "
+                   "middlebury,sceneflow,crestereo,fsd).")
 @backend_option
 @engine_option
 @address_option
-def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, engine,
-                      address) -> None:
+def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text, backend,
+                      engine, address) -> None:
     """Dataset pairs/s with 1 and 2 workers (writing included), scaling, time for 35,454 pairs.
 
     With --engine ray: a local Ray on 127.0.0.1 per run, or the cluster at --address; the actors
@@ -120,9 +123,16 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, backend, eng
     sizes = parse_sizes(size_text) if size_text is not None else [None]
     if len(sizes) != 1:
         fail(ValueError(f"--size takes one WxH, got {size_text!r}"))
+    from synth.formats import DATASET_FORMATS
+
+    formats = [f.strip() for f in formats_text.split(",") if f.strip()]
+    unknown = [f for f in formats if f not in DATASET_FORMATS]
+    if not formats or unknown:
+        fail(ValueError(f"--format: expected layouts among {', '.join(DATASET_FORMATS)}, got "
+                        f"{formats_text!r}"))
     rows = bench_dataset(configs=names, count=count, workers=workers,
                          backend=backend, progress=True, size=sizes[0], engine=engine,
-                         address=address)
+                         address=address, formats=formats)
     click.echo(write_table(rows, Path(out), "dataset"))
     from synth.jobs.bench.dataset import profile_dataset
 

@@ -28,9 +28,14 @@ __all__ = ["dataset"]
 @engine_option
 @address_option
 @click.option("--format", "fmt", default="middlebury", show_default=True,
-              type=LazyChoice("synth.write.formats:DATASET_FORMATS"),
+              type=LazyChoice("synth.formats:DATASET_FORMATS"),
               help="Sample folders (middlebury: MiddEval3, middlebury2014: the 2014 scene "
-                   "archives, kitti) or tar shards (webdataset).")
+                   "archives, kitti; the training layouts sceneflow: FlyingThings3D's tree, "
+                   "crestereo, fsd: FoundationStereo's; docs/formats.md) or tar shards "
+                   "(webdataset).")
+@click.option("--size", "size_text", default=None, metavar="WxH",
+              help="Render at this size instead of the config's, fx scaled with the width "
+                   "(e.g. 960x540, FlyingThings3D's); another config hash than the file's.")
 @click.option("--shard-size", "shard_size", default=None, metavar="BYTES",
               help="Bytes per tar shard of --format webdataset, e.g. 1GB, 500MB [default: 1GB].")
 @click.option("--disp-encoding", "disp_encoding", default=None,
@@ -54,7 +59,7 @@ __all__ = ["dataset"]
               help="Convert DIR, a dataset of the previous layout (sample folders at the root), "
                    "in place to this one (MiddEval3/trainingF/, training/samples/, records/); "
                    "no CONFIG.")
-def dataset(config, out, count, indices, workers, engine, address, fmt, shard_size,
+def dataset(config, out, count, indices, workers, engine, address, fmt, size_text, shard_size,
             disp_encoding, backend, verify_dir, compare, require_bytes, upgrade) -> None:
     """Generate a labelled dataset from CONFIG (a .toml file or a shipped example name), check
     one with --verify DIR, compare two with --compare A B, or convert one of the previous layout
@@ -100,6 +105,17 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, shard_si
         raise click.UsageError("missing CONFIG (a .toml file or a shipped example name) and "
                                "--out DIR, or --verify DIR, or --upgrade DIR" if config is None else
                                "missing option '--out' (the dataset directory)")
+    if size_text is not None:  # WxH, checked before any work
+        from synth.dataset.config.parse import load_config, resized
+        from synth.jobs.bench.render import parse_sizes
+
+        try:
+            sizes = parse_sizes(size_text)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--size") from None
+        if len(sizes) != 1:
+            raise click.BadParameter(f"expected one WxH, got {size_text!r}", param_hint="--size")
+        config = resized(load_config(config), *sizes[0])
     if indices is not None:  # START:STOP -> a range, checked against the count, before any work
         from synth.dataset.config.parse import load_config
         from synth.dataset.parts import parse_indices
@@ -152,14 +168,27 @@ def _rendered(run) -> str:
 
 
 def _compare(a: str, b: str, *, require_bytes: bool) -> None:
+    from pathlib import Path
+
     from synth.dataset.compare import compare_datasets, same_content, summarize
+    from synth.dataset.compare_layouts import compare_layouts, dataset_formats
 
     try:
-        differences = compare_datasets(a, b)
+        formats = dataset_formats(Path(a), Path(b)) if "://" not in a + b else None
+        if formats:  # two layouts: sample by sample, within each layout's quantum
+            click.echo(f"{a} is --format {formats[0]}, {b} --format {formats[1]}: comparing "
+                       "samples (pixels, ground truth within the quantum, calibration)")
+            differences = compare_layouts(a, b)
+        else:
+            differences = compare_datasets(a, b)
     except FileNotFoundError as exc:
         raise click.BadParameter(str(exc), param_hint="--compare") from None
     for d in differences:
         click.echo(f"{d.kind:8} {d}")
-    click.echo(f"{a} vs {b}: {summarize(differences)}")
+    if formats and not differences:
+        click.echo(f"{a} vs {b}: the same samples (pixels, ground truth within the quantum, "
+                   "calibration)")
+    else:
+        click.echo(f"{a} vs {b}: {summarize(differences)}")
     if differences and (require_bytes or not same_content(differences)):
         raise SystemExit(1)

@@ -1,7 +1,7 @@
 """Every option that more than one command takes, defined once (pip-tools' ``scripts/options.py``).
 
 Choice lists come from the library's own constants (``synth.render.BACKENDS``,
-``synth.write.formats.FORMATS``, ``matcher.METHODS``, ``synth.dataset.ENGINES``), loaded when a
+``synth.formats.FORMATS``, ``matcher.METHODS``, ``synth.dataset.ENGINES``), loaded when a
 command needs them, so that ``stereoforge --help`` imports neither numba nor trimesh.
 """
 
@@ -71,7 +71,7 @@ def backend_option(f: Callable[..., Any]) -> Callable[..., Any]:
 def format_option(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--format`` (every layout :func:`synth.write_pair` writes)."""
     return click.option("--format", "fmt", default="middlebury", show_default=True,
-                        type=LazyChoice("synth.write.formats:FORMATS"))(f)
+                        type=LazyChoice("synth.formats:FORMATS"))(f)
 
 
 def method_option(f: Callable[..., Any]) -> Callable[..., Any]:

@@ -74,11 +74,18 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         from synth.write.ground_truth import check_ground_truth
 
         kinds = check_ground_truth(ground_truth, where="--ground-truth")
-        if kinds and fmt == "kitti":
-            fail(ValueError("--ground-truth has no place in the KITTI 2015 layout; use "
-                            "--format middlebury or drop --ground-truth"))
+        if kinds:
+            from synth.formats import get_layout
+
+            layout = get_layout(fmt)
+            if not layout.capacity.extra_ground_truth:
+                fail(ValueError(f"--ground-truth has no place in the {layout.title} layout; use "
+                                "--format middlebury or drop --ground-truth"))
     spec, seed = resolve_scene(scene, seed=seed)
     rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
+    from synth.formats import get_layout
+
+    get_layout(fmt).check_rig(rig, source=f"--format {fmt}")  # before anything is rendered
     lighting = None
     if relight is not None:
         import dataclasses

@@ -14,19 +14,18 @@ dataset is extended), and close to ``val_fraction`` for more than a few dozen sa
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from matcher.io import load_kitti_2015, load_middlebury_2014, read_pfm
+from matcher.io import StereoSample, read_pfm
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_choice, check_real
 from synth._util.json_records import read_json_object
-from synth.dataset.storage.layout import KITTI_TRAINING, check_layout, sample_dir
+from synth.dataset.storage.layout import check_layout, sample_dir
 from synth.dataset.storage.manifest import MODIFIED_FIX, read_manifest
-from synth.write.formats import FORMATS, MIDDLEBURY_LAYOUTS
+from synth.formats import DATASET_FORMATS, get_layout
 
 __all__ = ["StereoDataset", "SPLITS", "is_validation"]
 
@@ -81,7 +80,9 @@ class StereoDataset:
     Parameters
     ----------
     root : str or Path
-        The dataset directory (``--format middlebury``, ``middlebury2014`` or ``kitti``).
+        The dataset directory, of any format with sample folders (``middlebury``,
+        ``middlebury2014``, ``kitti``, ``sceneflow``, ``crestereo``, ``fsd``: every layout but
+        ``webdataset``), read through its layout (:mod:`synth.formats`).
     split : {"all", "train", "val"}
         ``val``: the samples whose seed falls in the first ``val_fraction`` of the seed range;
         ``train``: the others.
@@ -92,6 +93,7 @@ class StereoDataset:
     ----------
     root : Path
     format : str
+    layout : synth.formats.base.Layout
     indices : tuple of int
         The dataset's sample indices in this split, sorted; item ``i`` is sample ``indices[i]``.
 
@@ -103,11 +105,13 @@ class StereoDataset:
     - ``disp``: (H, W) float32 left disparity in pixels, ``inf`` where there is no ground truth;
     - ``valid``: (H, W) bool, finite ``disp``;
     - ``occlusion``: (H, W) bool, pixels of the left view hidden in the right one (they have a
-      ground-truth disparity; ``mask0nocc.png`` 128, or valid in ``disp_occ_0`` only);
+      ground-truth disparity; ``mask0nocc.png`` 128, or valid in ``disp_occ_0`` only; a layout
+      without a mask: a left-right check of its ground truths,
+      :func:`synth.formats.base.fill_occlusion`);
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
-    - when on disk: ``disp_right`` ((H, W) float32, Middlebury ``disp1GT.pfm`` or
-      ``disp1.pfm``), and the optional ground truth of :mod:`synth.write.ground_truth`: ``depth``
+    - when on disk: ``disp_right`` ((H, W) float32: Middlebury ``disp1GT.pfm`` or
+      ``disp1.pfm``, SceneFlow's right PFM, CREStereo's ``_right.disp.png``), and the optional ground truth of :mod:`synth.write.ground_truth`: ``depth``
       ((H, W) float32 metres), ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16),
       ``semantic`` ((H, W) uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels
       hidden in the left).
@@ -143,10 +147,15 @@ class StereoDataset:
         check_layout(self.root)
         header = read_json_object(header_path, what="dataset header", fix=MODIFIED_FIX)
         self.format = header.get("format")
-        if self.format not in FORMATS:
+        if self.format not in DATASET_FORMATS:
+            raise DatasetError(f"{header_path}: unknown format {self.format!r}; StereoDataset "
+                               f"reads {', '.join(DATASET_FORMATS)} datasets")
+        self.layout = get_layout(self.format)
+        if not self.layout.capacity.sample_folders:
+            folders = [n for n in DATASET_FORMATS if get_layout(n).capacity.sample_folders]
             raise DatasetError(f"{header_path}: format {self.format!r} has no sample folders; "
-                               f"StereoDataset reads the {', '.join(FORMATS)} formats (read "
-                               "webdataset shards with webdataset.WebDataset)")
+                               f"StereoDataset reads the {', '.join(folders)} formats (read "
+                               f"{self.format} shards with webdataset.WebDataset)")
         self.split, self.val_fraction = split, float(val_fraction)
         self._seeds: dict[int, int] = {}
         for r in _records(self.root):
@@ -164,28 +173,27 @@ class StereoDataset:
         return (f"StereoDataset({str(self.root)!r}, split={self.split!r}, "
                 f"val_fraction={self.val_fraction}) with {len(self)} samples ({self.format})")
 
-    def __getitem__(self, item: int) -> dict[str, Any]:
+    def sample(self, item: int) -> StereoSample:
+        """Item ``item`` as the layout reads it back (:meth:`synth.formats.base.Layout.read`):
+        images, left and right ground truth, the occlusion mask (255/128/0), calibration."""
         if isinstance(item, (bool, np.bool_)) or not isinstance(item, (int, np.integer)):
             raise TypeError(f"index: expected an int, got {type(item).__name__}")
         if not -len(self) <= item < len(self):
             raise IndexError(f"index {item} out of range for {len(self)} samples")
+        return self.layout.read(self.root, self.indices[int(item)])
+
+    def __getitem__(self, item: int) -> dict[str, Any]:
+        s = self.sample(item)
         index = self.indices[int(item)]
-        folder = sample_dir(self.root, self.format, index)
         extra: dict[str, Any] = {}
-        if self.format in MIDDLEBURY_LAYOUTS:
-            s = load_middlebury_2014(folder)
-            if s.disp_right is not None:
-                extra["disp_right"] = s.disp_right.astype(np.float32, copy=False)
-        else:
-            s = load_kitti_2015(self.root / KITTI_TRAINING, index)
-        extra.update(_optional_ground_truth(folder))
-        rig = json.loads((folder / "scene.json").read_text())["rig"]
+        if s.disp_right is not None:
+            extra["disp_right"] = s.disp_right.astype(np.float32, copy=False)
+        extra.update(_optional_ground_truth(sample_dir(self.root, self.format, index)))
         disp = s.disp_left.astype(np.float32, copy=False)
-        mask = s.mask_left if s.mask_left is not None else np.where(np.isfinite(disp), 255, 0)
         return {
             "left": s.left, "right": s.right, "disp": disp, "valid": np.isfinite(disp),
-            "occlusion": mask == 128,
-            "calib": {k: np.float64(rig[k]) for k in ("fx", "fy", "cx", "cy", "baseline")},
+            "occlusion": s.mask_left == 128,
+            "calib": {k: np.float64(v) for k, v in s.calib.items()},
             "index": np.int64(index), "seed": np.int64(self._seeds[index]),
             **extra,
         }

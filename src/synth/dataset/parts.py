@@ -42,6 +42,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from stereoforge.errors import DatasetError, ParameterError, ParameterTypeError
+from synth.formats import get_layout
 from synth.dataset.storage.fs import FsPath, is_local
 
 __all__ = ["HEADER_BYTE", "RunLock", "check_indices", "is_part", "lock_run", "parse_indices"]
@@ -107,7 +108,8 @@ def _checked(indices: range, count: int, fmt: str | None, shown: str,
     if indices.start >= indices.stop:
         raise ParameterError(f"{option}: expected a non-empty range START:STOP with START < STOP, "
                              f"got {shown}; e.g. {indices.start}:{count}")
-    if fmt == "webdataset" and is_part(indices, count):
+    if fmt is not None and is_part(indices, count) and not get_layout(
+            fmt).capacity.sample_folders:
         raise ParameterError(f"{option}: {shown} is a part of the dataset, but --format webdataset "
                              "fills its shards in index order from one run; drop the indices, or "
                              "split a middlebury or kitti dataset")

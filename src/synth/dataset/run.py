@@ -61,7 +61,7 @@ from synth.dataset.config.sampling import sample_seed
 from synth.dataset.storage.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage.fs import FsPath, dataset_path, is_local, remove_tree, write_bytes
 from synth.write.export import staged_output_dir
-from synth.write.formats import DATASET_FORMATS
+from synth.formats import DATASET_FORMATS, get_layout
 from synth._util.progress import progress as progress_bar
 from synth.appearance.texture_control import CANNY_SETTINGS
 
@@ -227,11 +227,13 @@ def run_dataset(
         joined before ``out`` is made or opened: an address that does not answer, or fails
         Ray's handshake, raises :class:`~stereoforge.errors.BackendError` and leaves no folder
         (and an existing dataset as it was).
-    fmt : {"middlebury", "middlebury2014", "kitti", "webdataset"}
-        ``middlebury``: MiddEval3 scene folders, ``middlebury2014``: the 2014 scene archives'
-        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames
-        (:mod:`synth.dataset.storage.layout`); ``webdataset``: tar shards
-        (:mod:`synth.dataset.storage.shards`).
+    fmt : str
+        One of :data:`synth.formats.DATASET_FORMATS` (:mod:`synth.formats`): ``middlebury``:
+        MiddEval3 scene folders, ``middlebury2014``: the 2014 scene archives'
+        (``2014/NNNNNN/disp0.pfm``), ``kitti``: KITTI 2015 frames; the training layouts
+        ``sceneflow`` (FlyingThings3D's tree), ``crestereo``, ``fsd``; ``webdataset``: tar shards
+        (:mod:`synth.dataset.storage.shards`). What the layout cannot hold (a rig's flow, optional
+        ground truth, disparities beyond its range or below its quantum) is refused first.
     progress : bool
         Show a progress bar (stderr).
     backend : {"auto", "egl", "osmesa"}
@@ -285,14 +287,10 @@ def run_dataset(
     part = is_part(indices, count)
     shard_size = check_shard_option(fmt, shard_size)
     disp_encoding = check_disp_encoding(fmt, disp_encoding)
-    if cfg.rig.errors is not None and fmt == "kitti":
-        raise DatasetError(f"{cfg.source}: the [rig] camera errors give each sample a flow0.flo, "
-                           f"which the KITTI layout cannot hold; use --format middlebury "
-                           "(or webdataset)")
-    if cfg.ground_truth and fmt == "kitti":
-        raise ParameterError(f"{cfg.source}: ground_truth = {list(cfg.ground_truth)} has no place "
-                             "in the KITTI 2015 layout; use fmt='middlebury' or 'webdataset', or "
-                             "drop ground_truth")
+    layout = get_layout(fmt)  # what the layout cannot hold is refused before any work
+    layout.check_config(flow=cfg.rig.errors is not None, ground_truth=tuple(cfg.ground_truth or ()),
+                        source=str(cfg.source))
+    layout.check_rig(cfg.rig, source=str(cfg.source))
     if shard_size is not None and not is_local(out):
         raise ParameterError(f"{out}: --format webdataset packs its shards in a local folder; "
                              "write them to a path (and copy the shards to object storage)")

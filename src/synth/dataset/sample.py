@@ -34,6 +34,7 @@ from synth.dataset.config.sampling import (
     sample_seed,
     stream,
 )
+from synth.formats import get_layout
 from synth.write.export import write_pair
 from synth.appearance.photometric import apply_photometric
 from synth.appearance.texture_control import edge_density, match_edge_density
@@ -150,8 +151,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
               "params": dict(draw.params), "stats": stats}
     dest.mkdir(parents=True, exist_ok=True)
     write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
-               fmt="middlebury" if fmt == "webdataset" else fmt,  # shards: packed from these
-               preview=config.preview, fsync=False)
+               fmt=get_layout(fmt).writes_as,  # webdataset: shards packed from these folders
+               preview=config.preview, fsync=False, clean=pair)
     if config.ground_truth:  # optional: rendered by an extra GT pass (synth.write.ground_truth)
         from synth.write.ground_truth import render_ground_truth, write_ground_truth
 

@@ -1,19 +1,17 @@
 """``stereoforge eval-dataset``: score any matcher on a dataset folder or a study's kept pairs.
 
 The pairs are read through the dataset's manifest
-(:func:`synth.dataset.storage.manifest.read_manifest`: every
-``MiddEval3/trainingF/NNNNNN/sample.json``, ``2014/NNNNNN/sample.json`` or
-``training/samples/NNNNNN/sample.json``), so a folder of ``stereoforge dataset`` (``--format
-middlebury``, ``middlebury2014`` or ``kitti``, as its ``dataset.json`` says) and the ``pairs/``
-folder of ``stereoforge study --keep-pairs`` (or the study folder itself) all work. A Middlebury
-sample folder is a MiddEval3 scene (``im0.png``, ``im1.png``, ``disp0GT.pfm``, ``mask0nocc.png``;
-the ground truth is ``disp0.pfm`` in the 2014 layout); a KITTI sample is frame ``NNNNNN_10`` of
-``training/`` (``image_2``, ``image_3``, ``disp_occ_0``, ``disp_noc_0``: the regions' occluded
-pixels are those with ``disp_occ_0`` but no ``disp_noc_0``). Regions: the ``mask_<region>.png``
-files where present (validate's pairs), else ``all``, ``nonocc`` and ``occluded``. ``max_disparity``
-per sample: the option if given, else the sample's ``params.max_disparity`` (a study's), else
-``calib.txt``'s ``ndisp`` (Middlebury), else (KITTI) the ground truth's largest value + 1 rounded up
-to a multiple of 16, as the Middlebury writer's ``ndisp``.
+(:func:`synth.dataset.storage.manifest.read_manifest`: every sample folder's ``sample.json``) and
+each sample through its layout (:meth:`synth.formats.base.Layout.read`: images, ground truth,
+occlusion mask), so a folder of ``stereoforge dataset`` of any format with sample folders (as its
+``dataset.json`` says) and the ``pairs/`` folder of ``stereoforge study --keep-pairs`` (or the
+study folder itself, MiddEval3 folders) all work. Regions: the ``mask_<region>.png`` files where
+present (validate's pairs), else ``all``, ``nonocc`` and ``occluded`` from the occlusion mask (a
+KITTI frame's occluded pixels are those with ``disp_occ_0`` but no ``disp_noc_0``; a layout
+without a mask gets a left-right check of its ground truths). ``max_disparity`` per sample: the
+option if given, else the sample's ``params.max_disparity`` (a study's), else ``calib.txt``'s
+``ndisp`` (Middlebury), else the ground truth's largest value + 1 rounded up to a multiple of 16,
+as the Middlebury writer's ``ndisp``.
 
 Outputs in ``out`` (default ``DIR/eval/<matcher>-<hash8>``): ``NNNNNN.pfm`` estimates and
 ``results.csv`` (:data:`COLUMNS`); the scores are :func:`matcher.regions.region_scores`.
@@ -51,34 +49,26 @@ def _root(folder: Path) -> tuple[Path, list[dict]]:
 
 def _load(root: Path, fmt: str, rec: dict) -> tuple:
     """``(left, right, gt, occlusion mask, default max_disparity (a callable: calib.txt is read
-    only when needed), region mask folder or None)`` of a sample; a missing file is a
-    :exc:`DatasetError` naming it."""
-    import math
-
-    import numpy as np
-
-    from matcher.io import GT_FILES, load_kitti_2015, read_calib, read_image, read_pfm
+    only when needed), region mask folder or None)`` of a sample, read through its layout
+    (:meth:`synth.formats.base.Layout.read`); a missing file is a :exc:`DatasetError` naming
+    it."""
+    from matcher.io import read_calib
     from synth.dataset.storage.layout import sample_dir
-    from synth.write.formats import KITTI_ROOT, MIDDLEBURY_LAYOUTS
+    from synth.formats import get_layout
+    from synth.formats.base import ndisp_for
 
     index = rec["index"]
     try:
-        if fmt == "kitti":
-            s = load_kitti_2015(root / KITTI_ROOT, index)
-            finite = s.disp_left[np.isfinite(s.disp_left)]
-            vmax = math.ceil(float(finite.max())) if finite.size else 0
-            occ = s.mask_left if s.mask_left is not None else np.where(
-                np.isfinite(s.disp_left), 255, 0).astype(np.uint8)
-            return s.left, s.right, s.disp_left, occ, lambda: 16 * math.ceil((vmax + 1) / 16), None
-        sample = sample_dir(root, fmt, index)
-        left, right = read_image(sample / "im0.png"), read_image(sample / "im1.png")
-        gt = read_pfm(sample / GT_FILES[MIDDLEBURY_LAYOUTS[fmt]][0])
-        occ = read_image(sample / "mask0nocc.png")
-        return left, right, gt, occ, lambda: int(read_calib(sample / "calib.txt")["ndisp"]), sample
+        s = get_layout(fmt).read(root, index)
     except FileNotFoundError as exc:
         raise DatasetError(f"{root}: sample {index}: {exc.filename} is missing; eval-dataset "
                            f"reads the {fmt} layout's files (see stereoforge dataset "
                            "--format)") from None
+    folder = sample_dir(root, fmt, index)
+    calib = folder / "calib.txt"
+    default = ((lambda: int(read_calib(calib)["ndisp"])) if calib.is_file()
+               else (lambda: ndisp_for(s.disp_left)))
+    return s.left, s.right, s.disp_left, s.mask_left, default, folder
 
 
 def _cell(value: object) -> object:
@@ -96,7 +86,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
     from synth.dataset.storage.layout import dataset_format
-    from synth.write.formats import FORMATS
+    from synth.formats import DATASET_FORMATS, get_layout
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
@@ -104,10 +94,11 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
         root, records = _root(folder)
         # a dataset names its layout; a study's pairs are MiddEval3 folders
         fmt = dataset_format(root) if (root / "dataset.json").is_file() else "middlebury"
-        if fmt not in FORMATS:
+        if not get_layout(fmt).capacity.sample_folders:
+            folders = [n for n in DATASET_FORMATS if get_layout(n).capacity.sample_folders]
             raise DatasetError(f"{root} is a {fmt} dataset (samples packed in tar shards); "
                                "eval-dataset reads sample folders: write the dataset with "
-                               f"--format {', '.join(FORMATS)}")
+                               f"--format {', '.join(folders)}")
     except BaseException:
         m.close()
         raise
@@ -124,7 +115,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
             left, right, gt, occ, default, sample = _load(root, fmt, rec)
             d = max_disparity or rec["params"].get("max_disparity") or default()
             d = int(min(d, gt.shape[1] - 1))
-            if sample is not None and (sample / "mask_all.png").is_file():
+            if (sample / "mask_all.png").is_file():
                 masks = {n: read_image(sample / f"mask_{n}.png") > 0 for n in REGIONS}
             else:
                 import numpy as np

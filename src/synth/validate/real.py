@@ -10,7 +10,13 @@ A SPEC names real stereo pairs with ground truth, read by :mod:`matcher.io`'s re
 - ``kitti:DIR[:FIRST-LAST]``: frames of a KITTI 2015 ``training/`` folder (every frame with
   ``disp_occ_0``, or those from FIRST to LAST);
 - ``skimage:motorcycle``: Middlebury 2014 *Motorcycle* as scikit-image ships it
-  (:func:`skimage.data.stereo_motorcycle`, no download).
+  (:func:`skimage.data.stereo_motorcycle`, no download);
+- ``sceneflow:DIR``, ``crestereo:DIR``, ``fsd:DIR``: every sample with ground truth of a tree in
+  FlyingThings3D's, CREStereo's or FoundationStereo's layout (a user's own data, a download, or a
+  stereoforge dataset of that format), found and read by the layout
+  (:meth:`synth.formats.base.Layout.discover`, :meth:`~synth.formats.base.Layout.read_key`).
+
+The Middlebury 2014 and KITTI scenes are read by the ``middlebury`` and ``kitti`` layouts too.
 
 Each scene becomes a pair folder ``pairs/real/<scene>/`` of the validate folder, in the layout
 of the synthetic ones (:mod:`synth.validate.pairs`): ``im0.png``, ``im1.png``, ``disp0GT.pfm``,
@@ -37,12 +43,20 @@ import numpy as np
 
 from stereoforge.errors import ParameterError
 
-__all__ = ["AXIS", "RealSpec", "resolve_real", "write_real_folder"]
+__all__ = ["AXIS", "SCHEMES", "LAYOUT_SCHEMES", "RealSpec", "resolve_real", "write_real_folder"]
 
 #: The ``axis`` of real scenes' rows.
 AXIS = "real"
 _VERSION = 1
-_FORMS = "middlebury:DIR[:DIVISOR], kitti:DIR[:FIRST-LAST] or skimage:motorcycle"
+#: The schemes of a SPEC whose trees a layout of :mod:`synth.formats` reads as it is.
+LAYOUT_SCHEMES = ("sceneflow", "crestereo", "fsd")
+#: Every scheme of a SPEC.
+SCHEMES = ("middlebury", "kitti", "skimage", *LAYOUT_SCHEMES)
+_FORMS = ("middlebury:DIR[:DIVISOR], kitti:DIR[:FIRST-LAST], skimage:motorcycle, sceneflow:DIR, "
+          "crestereo:DIR or fsd:DIR")
+#: The layout (:func:`synth.formats.get_layout`) reading each kind of scene.
+_LAYOUT_OF = {"middlebury2014": "middlebury", "kitti2015": "kitti",
+              **{s: s for s in LAYOUT_SCHEMES}}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,13 +71,16 @@ class RealSpec:
         ``middlebury:third/Moebius``, ``kitti:training/000007``, ``skimage:motorcycle``: the
         ``scene`` column of results.csv.
     kind : str
-        ``middlebury2005``, ``middlebury2014``, ``kitti2015`` or ``skimage``.
+        ``middlebury2005``, ``middlebury2014``, ``kitti2015``, ``skimage``, or a layout's name
+        (``sceneflow``, ``crestereo``, ``fsd``).
     path : str
         The scene folder (the KITTI root), or ``motorcycle``.
     index : int or None
         KITTI frame.
     divisor : float or None
         Middlebury 2005/2006 codes per pixel.
+    key : str or None
+        The sample in a layout's tree (:meth:`synth.formats.base.Layout.read_key`).
     fingerprint : str
         SHA-256 of the loaded images and ground truth (and of this layout's version).
     """
@@ -75,6 +92,7 @@ class RealSpec:
     index: int | None = None
     divisor: float | None = None
     fingerprint: str = ""
+    key: str | None = None
     axis = AXIS
     value = None
     seed = None
@@ -86,33 +104,27 @@ class RealSpec:
     def load(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
         """``left, right, gt, occlusion, how``: RGB uint8 images, float32 ground truth (inf =
         unknown), the occlusion mask (255/128/0) and how it was made."""
-        from matcher.io import load_kitti_2015, load_middlebury_2005, load_middlebury_2014
-        from matcher.regions import occlusion_from_disparities
+        from matcher.io import StereoSample, load_middlebury_2005
+        from synth.formats import get_layout
+        from synth.formats.base import fill_occlusion
 
         if self.kind == "skimage":
             import skimage.data
 
             left, right, disp = skimage.data.stereo_motorcycle()
             gt = np.where(np.isfinite(disp), disp, np.inf).astype(np.float32)
-            return (left, right, gt, occlusion_from_disparities(gt),
-                    "left-right check: the left ground truth warped to the right view")
-        if self.kind == "kitti2015":
-            sample = load_kitti_2015(self.path, int(self.index))
-        elif self.kind == "middlebury2014":
-            sample = load_middlebury_2014(self.path)
+            sample = StereoSample(left, right, gt, None, "motorcycle")
+        elif self.kind in _LAYOUT_OF:
+            key = self.key or ("." if self.index is None else f"{int(self.index):06d}")
+            sample = get_layout(_LAYOUT_OF[self.kind]).read_key(Path(self.path), key)
         else:
             sample = load_middlebury_2005(self.path, divisor=self.divisor)
         left, right = (np.repeat(v[..., None], 3, axis=2) if v.ndim == 2 else v
                        for v in (sample.left, sample.right))
         gt = sample.disp_left.astype(np.float32)
-        if sample.mask_left is not None:
-            mask = np.where(np.isfinite(gt), sample.mask_left, 0).astype(np.uint8)
-            return left, right, gt, mask, "the scene's own occlusion mask"
-        if sample.disp_right is not None:
-            return (left, right, gt, occlusion_from_disparities(gt, sample.disp_right),
-                    "left-right check of the left and right ground truths")
-        return (left, right, gt, occlusion_from_disparities(gt),
-                "left-right check: the left ground truth warped to the right view")
+        mask, how = fill_occlusion(StereoSample(left, right, gt, sample.disp_right, sample.name,
+                                                mask_left=sample.mask_left))
+        return left, right, gt, mask, how
 
 
 def _fingerprint(spec: RealSpec) -> str:
@@ -186,6 +198,22 @@ def _kitti(spec: str, rest: str) -> list[RealSpec]:
             for i in frames]
 
 
+def _layout_tree(spec: str, scheme: str, rest: str) -> list[RealSpec]:
+    from synth.formats import get_layout
+
+    layout = get_layout(scheme)
+    root = Path(rest)
+    if not root.is_dir():
+        raise _bad(spec, f"{root} is not a folder; give the root of a tree in the "
+                         f"{layout.title} layout (see docs/formats.md)")
+    keys = layout.discover(root)
+    if not keys:
+        raise _bad(spec, f"no sample with ground truth in {root} in the {layout.title} layout "
+                         "(see docs/formats.md for its tree)")
+    return [RealSpec(spec, f"{scheme}:{root.name}/{key}", scheme, str(root), key=key)
+            for key in keys]
+
+
 def resolve_real(specs: Sequence[str]) -> list[RealSpec]:
     """The real scenes of ``--real`` SPECs, in the given order, each with its fingerprint.
 
@@ -201,6 +229,8 @@ def resolve_real(specs: Sequence[str]) -> list[RealSpec]:
             found += _middlebury(spec, rest)
         elif kind == "kitti" and rest:
             found += _kitti(spec, rest)
+        elif kind in LAYOUT_SCHEMES and rest:
+            found += _layout_tree(spec, kind, rest)
         elif kind == "skimage" and rest == "motorcycle":
             found.append(RealSpec(spec, "skimage:motorcycle", "skimage", "motorcycle"))
         else:

@@ -1,14 +1,13 @@
 """A rendered pair on disk: the layouts, the files, previews and optional ground truth.
 
-- :mod:`synth.write.formats` — ``FORMATS``, ``DATASET_FORMATS``, ``MIDDLEBURY_LAYOUTS``: the
-  layouts :func:`~synth.write.export.write_pair` and ``run_dataset`` write (a leaf, for the CLI).
-- :mod:`synth.write.export` — one pair on disk: format layout, ``scene.json``, ``preview.png``.
+- :mod:`synth.write.export` — one pair on disk: its layout's files (:mod:`synth.formats`),
+  ``scene.json``, ``preview.png``.
 - :mod:`synth.write.ground_truth` — optional ground truth: depth, normals, instance and semantic
   masks, the right view's mask.
 - :mod:`synth.write.preview` — colour-mapped disparity with a colour bar, the demo contact sheet.
 
 Nothing is imported here (the public names are :mod:`synth`'s): each is imported from its module,
-so the command line reads :mod:`synth.write.formats` without importing the writers.
+so the command line reads :mod:`synth.formats` without importing the writers.
 """
 
 __all__: list[str] = []

@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import errno
 import functools
-import math
 import os
 import re
 import shutil
@@ -20,28 +19,20 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.io import (
-    atomic_write_bytes,
-    encode_flo,
-    encode_png,
-    format_kitti_calib,
-    write_kitti,
-    write_middlebury,
-)
-from scenes import PRESETS, SceneSpec, get_preset, load_scene, plane_equation, scene_to_dict
+from matcher.io import atomic_write_bytes, encode_png
+from scenes import PRESETS, SceneSpec, get_preset, load_scene, scene_to_dict
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_input_file
 from synth._util.json_records import json_bytes
-from synth.write.formats import FORMATS, KITTI_ROOT, MIDDLEBURY_LAYOUTS
+from synth.formats import FORMATS, get_layout
+from synth.formats.kitti import KITTI_ROOT, foreground_map, kitti_calib_for
+from synth.formats.middlebury import calib_for
 from synth.pair import StereoPair
 from synth.write.preview import preview_image
 
 __all__ = ["FORMATS", "KITTI_ROOT", "OutputDirError", "resolve_scene", "prepare_output_dir",
            "staged_output_dir", "calib_for", "kitti_calib_for", "foreground_map", "write_pair",
            "save_pair"]
-
-#: |d - d_plane| (px) below which a pixel lies on a plane object (the golden disparity tolerance).
-_ON_PLANE_PX = 1e-3
 
 class OutputDirError(DatasetError):
     """The output directory cannot be used as asked."""
@@ -190,56 +181,6 @@ def staged_output_dir(out: str | Path, *, overwrite: bool = False) -> Iterator[P
         raise
 
 
-def calib_for(pair: StereoPair) -> dict:
-    """Middlebury ``calib.txt`` fields for a rendered pair (ndisp, vmin, vmax from its GT).
-
-    ``vmin``/``vmax`` bound the finite left and right disparities (floor/ceil); ``ndisp`` is
-    ``vmax + 1`` rounded up to a multiple of 16, as Middlebury's conservative search bound.
-    """
-    lo, hi = math.inf, -math.inf
-    for d in (pair.disp_left, pair.disp_right):
-        finite = np.isfinite(d)
-        lo = min(lo, float(np.min(d, where=finite, initial=np.inf)))
-        hi = max(hi, float(np.max(d, where=finite, initial=-np.inf)))
-    if lo > hi:  # no finite disparity at all
-        lo = hi = 0.0
-    vmin = int(math.floor(lo))
-    vmax = int(math.ceil(hi))
-    ndisp = int(16 * math.ceil((vmax + 1) / 16))
-    return pair.rig.middlebury_calib(ndisp=ndisp, vmin=vmin, vmax=vmax)
-
-
-def kitti_calib_for(pair: StereoPair) -> str:
-    """``calib_cam_to_cam`` text of a rendered pair (:func:`matcher.io.format_kitti_calib`)."""
-    rig = pair.rig
-    return format_kitti_calib(fx=rig.fx, fy=rig.fy, cx=rig.cx, cy=rig.cy, baseline=rig.baseline,
-                              width=rig.width, height=rig.height)
-
-
-def foreground_map(pair: StereoPair, scene: SceneSpec) -> np.ndarray:
-    """KITTI ``obj_map`` of a rendered pair: 0 background, 1 foreground.
-
-    The renderer does not output object ids yet, so objects are split by kind: every ``plane``
-    object (walls, ground planes) is background, every other object (boxes, spheres, cylinders,
-    Moebius strips, terrain) foreground. A pixel with ground truth is background when its
-    disparity lies within 1e-3 px of the exact disparity of one of the scene's planes (the
-    unbounded plane: a foreground surface exactly on a plane's extension counts as background),
-    foreground otherwise; pixels without ground truth are 0, as in KITTI.
-
-    Returns
-    -------
-    (H, W) uint8 array
-    """
-    disp = np.asarray(pair.disp_left, dtype=np.float64)
-    background = ~np.isfinite(disp)
-    for obj in scene.objects:
-        if obj.kind == "plane":
-            n, c = plane_equation(obj)
-            on_plane = np.abs(disp - pair.rig.plane_disparity(n, c)) <= _ON_PLANE_PX
-            background |= on_plane
-    return np.where(background, 0, 1).astype(np.uint8)
-
-
 @functools.cache
 def _version() -> str:
     try:
@@ -270,6 +211,7 @@ def write_pair(
     index: int = 0,
     preview: bool = True,
     fsync: bool = True,
+    clean: StereoPair | None = None,
 ) -> list[Path]:
     """Write ``pair`` in a dataset layout, plus ``scene.json`` and (optionally) ``preview.png``.
 
@@ -283,23 +225,27 @@ def write_pair(
     scene : SceneSpec
         The fully resolved scene, stored in ``scene.json`` with the rig and seed.
     seed : int
-    fmt : {"middlebury", "middlebury2014", "kitti"}
-        ``middlebury``: a MiddEval3 scene folder in ``out`` (with the pair's exposure and lighting
-        variants as ``im1E.png``/``im1L.png`` and its highlight masks as ``mask0spec.png``/
+    fmt : str
+        One of :data:`synth.formats.FORMATS` (:mod:`synth.formats`). ``middlebury``: a
+        MiddEval3 scene folder in ``out`` (with the pair's exposure and lighting variants as ``im1E.png``/``im1L.png`` and its highlight masks as ``mask0spec.png``/
         ``mask1spec.png`` when it has them); ``middlebury2014``: the same folder with the ground
         truth named as in the 2014 scene archives (``disp0.pfm``, ``disp1.pfm``); ``kitti``: frame
         ``index`` under
         ``out/training/`` (with ``obj_map/`` from :func:`foreground_map` and
         ``calib_cam_to_cam/``), ``scene.json`` and ``preview.png`` in ``out``. A pair of a rig
         with camera errors (``pair.flow_left`` set) also gets ``flow0.flo`` in a Middlebury
-        folder and is refused in the KITTI layout.
+        folder and is refused in the KITTI layout. ``sceneflow``, ``crestereo``, ``fsd``: the
+        training layouts of FlyingThings3D, CREStereo and FoundationStereo (docs/formats.md).
     index : int
-        Frame index in the KITTI layout.
+        Frame index in the KITTI layout (sample index of the other layouts' file names).
     preview : bool
         Also write ``preview.png`` (left, right, disparity, mask).
     fsync : bool
         Flush every file to disk before its rename (survives power loss). Without it a file is
         still never half-written after a crash of the process, since it appears only by rename.
+    clean : StereoPair, optional
+        The pair before the sensor and photometric models, for layouts that keep both
+        (``sceneflow``'s cleanpass); default ``pair``.
 
     Returns
     -------
@@ -308,38 +254,13 @@ def write_pair(
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; valid formats: {', '.join(FORMATS)}")
+    layout = get_layout(fmt)
     out = Path(out)
-    flow = None if pair.flow_left is None else encode_flo(pair.flow_left)
-    if flow is not None and fmt not in MIDDLEBURY_LAYOUTS:
+    if pair.flow_left is not None and not layout.capacity.flow:
         raise OutputDirError(f"a rig with camera errors writes its exact flow as flow0.flo in the "
                              f"middlebury layouts only, not {fmt!r}; use --format middlebury")
-    if fmt in MIDDLEBURY_LAYOUTS:
-        written = list(
-            write_middlebury(
-                out,
-                left=pair.left,
-                right=pair.right,
-                disp_left=pair.disp_left,
-                disp_right=pair.disp_right,
-                mask_left=pair.mask_left,
-                calib=calib_for(pair),
-                fsync=fsync,
-                right_exposure=pair.right_exposure,
-                right_lighting=pair.right_lighting,
-                highlight_left=pair.highlight_left,
-                highlight_right=pair.highlight_right,
-                layout=MIDDLEBURY_LAYOUTS[fmt],
-            )
-        )
-        if flow is not None:  # the real cameras' exact correspondence (docs/formats.md)
-            written.append(atomic_write_bytes(out / "flow0.flo", flow, fsync=fsync))
-    else:
-        written = list(
-            write_kitti(out / KITTI_ROOT, index, left=pair.left, right=pair.right,
-                        disp_left=pair.disp_left, mask_left=pair.mask_left,
-                        obj_map=foreground_map(pair, scene), calib=kitti_calib_for(pair),
-                        fsync=fsync)
-        )
+    written = layout.write_files(pair, out, scene=scene, index=index,
+                                 clean=pair if clean is None else clean, fsync=fsync)
     record = {
         "stereoforge_version": _version(),
         "format": fmt,

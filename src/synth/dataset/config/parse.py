@@ -54,6 +54,7 @@ __all__ = [
     "loads_config",
     "config_from_dict",
     "list_examples",
+    "resized",
 ]
 
 # --------------------------------------------------------------------------- distributions
@@ -447,3 +448,18 @@ def load_config(config: str | Path | DatasetConfig) -> DatasetConfig:
     check_input_file(path, "dataset config", suffixes=(".toml",),
                      fix=f"pass a .toml file or one of the examples: {', '.join(EXAMPLES)}")
     return loads_config(read_toml_text(path), source=str(path))
+
+
+def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
+    """``config`` rendering ``width x height`` pixels, ``fx`` scaled with the width.
+
+    Examples
+    --------
+    >>> cfg = resized(load_config("flying"), 960, 540)
+    >>> cfg.rig.width, cfg.rig.height, cfg.rig.fx
+    (960, 540, 900.0)
+    """
+    data = config.to_dict()
+    data["rig"] = {**data["rig"], "width": int(width), "height": int(height),
+                   "fx": config.rig.fx * width / config.rig.width}
+    return config_from_dict(data, source=f"{config.source} at {width}x{height}")

@@ -17,22 +17,27 @@ from pathlib import Path
 from synth.dataset.storage.integrity import completion_record
 from synth.dataset.storage.layout import record_path, sample_dir
 from synth.dataset.storage.fs import FsPath, commit_sample, write_bytes
-from synth.write.formats import KITTI_ROOT
+from synth.formats import get_layout
 
 __all__ = ["commit_local", "dataset_files", "record_name", "write_record", "returned_files",
            "commit_files", "commit_returned"]
 
 
 def commit_local(tmp: Path, out: Path, index: int, fmt: str) -> None:
-    """Move a finished sample into place; the final rename is the completion marker."""
-    if fmt == "kitti":
-        shared = tmp / KITTI_ROOT
-        for sub in sorted(shared.iterdir()):
-            (out / KITTI_ROOT / sub.name).mkdir(parents=True, exist_ok=True)
-            for f in sorted(sub.iterdir()):
-                os.replace(f, out / KITTI_ROOT / sub.name / f.name)
-            sub.rmdir()
-        shared.rmdir()
+    """Move a finished sample into place; the final rename is the completion marker.
+
+    The files the layout places outside the sample folder (:attr:`Layout.placed
+    <synth.formats.base.Layout.placed>`: KITTI's ``training/image_2/...``, the SceneFlow tree)
+    are renamed to their paths in the dataset first, each atomically."""
+    for top in get_layout(fmt).placed:
+        shared = tmp / top
+        if not shared.is_dir():
+            continue
+        for f in sorted(p for p in shared.rglob("*") if p.is_file()):
+            target = out / f.relative_to(tmp)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(f, target)
+        shutil.rmtree(shared)
     final = sample_dir(out, fmt, index)
     final.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -47,14 +52,9 @@ def commit_local(tmp: Path, out: Path, index: int, fmt: str) -> None:
 
 def dataset_files(tmp: Path, index: int, fmt: str) -> list[tuple[str, Path]]:
     """The files of a sample's temporary folder, as (path in the dataset, file) pairs."""
-    folder = sample_dir(Path(), fmt, index).as_posix()
-    files = []
-    for path in sorted(p for p in tmp.rglob("*") if p.is_file()):
-        rel = path.relative_to(tmp)
-        in_dataset = rel.as_posix() if fmt == "kitti" and rel.parts[0] == KITTI_ROOT \
-            else f"{folder}/{rel.as_posix()}"
-        files.append((in_dataset, path))
-    return files
+    layout = get_layout(fmt)
+    return [(layout.dataset_path(path.relative_to(tmp).as_posix(), index), path)
+            for path in sorted(p for p in tmp.rglob("*") if p.is_file())]
 
 
 def record_name(index: int) -> str:

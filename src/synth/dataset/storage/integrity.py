@@ -24,9 +24,10 @@ from pathlib import Path
 
 from stereoforge.errors import DatasetError
 from synth._util.json_records import json_bytes
-from synth.dataset.storage.layout import (METADATA, MIDDEVAL_ROOT, RECORDS, SAMPLE_DIR, SCENE_LIST,
-                                          check_layout, dataset_format, record_path, sample_dir,
-                                          sample_parent, tools_root)
+from synth.dataset.storage.layout import (METADATA, RECORDS, SAMPLE_DIR, check_layout,
+                                          dataset_format, record_path, sample_dir,
+                                          sample_parent)
+from synth.formats import get_layout
 from synth.dataset.storage.manifest import manifest_bytes, read_manifest
 from synth.dataset.storage.shards import read_index, sha256
 from synth.dataset.storage.fs import dataset_path
@@ -130,7 +131,8 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
     parent = sample_parent(root, fmt)
     folders = {int(d.name) for d in parent.iterdir() if d.is_dir() and SAMPLE_DIR.match(d.name)} \
         if parent.is_dir() else set()
-    shards = read_index(root) if fmt == "webdataset" else []
+    layout = get_layout(fmt)
+    shards = [] if layout.capacity.sample_folders else read_index(root)
     packed = {int(r["index"]) for s in shards for r in s["records"]}
     present = sorted(folders | packed)
     last = max(present, default=-1) if count is None else count - 1
@@ -149,14 +151,14 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
         if files is None and index in folders:  # reported above; its files are not extra
             folder = sample_dir(root, fmt, index)
             listed |= {p.relative_to(root).as_posix() for p in folder.rglob("*")}
-    if fmt == "middlebury":
-        listed.add(f"{MIDDEVAL_ROOT}/{SCENE_LIST}")
-    tools = tools_root(root, fmt)
-    if tools.is_dir():  # every file under the tools' folder belongs to a sample's record
-        problems += [f"{rel}: extra file (no sample's record lists it)"
-                     for rel in (p.relative_to(root).as_posix()
-                                 for p in sorted(tools.rglob("*")) if p.is_file())
-                     if rel not in listed]
+    listed |= set(layout.finish_files([]))  # the whole dataset's files (scene lists, list files)
+    owned = (layout.tools_root.split("/")[0], layout.sample_parent.split("/")[0])
+    for top in dict.fromkeys(owned):  # every file there belongs to a sample's record
+        if (root / top).is_dir():
+            problems += [f"{rel}: extra file (no sample's record lists it)"
+                         for rel in (p.relative_to(root).as_posix()
+                                     for p in sorted((root / top).rglob("*")) if p.is_file())
+                         if rel not in listed]
     if (root / RECORDS).is_dir():
         problems += [f"{RECORDS}/{p.name}: record of no sample folder (sample "
                      f"{p.stem} is missing)" if SAMPLE_DIR.match(p.stem) and p.suffix == ".json"
@@ -166,7 +168,7 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
                              and int(p.stem) in folders)]
     for entry in sorted(root.iterdir()):
         if entry.name in METADATA or (entry.is_dir() and entry.name in (
-                RECORDS, tools.name)) or entry.name in {s["name"] for s in shards}:
+                RECORDS, *owned)) or entry.name in {s["name"] for s in shards}:
             continue
         if _TMP_DIR.match(entry.name):
             problems.append(f"{entry.name}: stale temporary directory of an interrupted run "
@@ -183,10 +185,9 @@ def verify_dataset(dataset_dir: str | Path, *, count: int | None = None,
         if not path.is_file() or path.read_bytes() != want:
             problems.append(f"{name}: does not match the samples' sample.json (rerun the "
                             "dataset command to rewrite it)")
-    if fmt == "middlebury":
-        scenes = root / MIDDEVAL_ROOT / SCENE_LIST
-        want = "".join(f"{r['dir']}\n" for r in records)
-        if not scenes.is_file() or scenes.read_text() != want:
-            problems.append(f"{MIDDEVAL_ROOT}/{SCENE_LIST}: does not list the complete samples "
-                            "(rerun the dataset command to rewrite it)")
+    for rel, want in layout.finish_files([r["dir"] for r in records]).items():
+        path = root / rel
+        if not path.is_file() or path.read_bytes() != want:
+            problems.append(f"{rel}: does not list the complete samples (rerun the dataset "
+                            "command to rewrite it)")
     return problems

@@ -13,7 +13,11 @@ Layout 2 (this version)::
       training/                                               fmt="kitti"
         image_2/ image_3/ disp_occ_0/ disp_noc_0/ obj_map/ calib_cam_to_cam/
         samples/000000/           scene.json sample.json
+      SceneFlow/ CREStereo/ FSD/                              fmt="sceneflow", "crestereo", "fsd"
+      samples/000000/             calib.txt scene.json sample.json (of those three)
 
+Where each format's files go is its layout's (:mod:`synth.formats`: ``sample_parent``,
+``tools_root``); this module names the folders of a dataset through it.
 ``MiddEval3/trainingF/<scene>/`` and ``MiddEval3/official_train.txt`` are where RAFT-Stereo's
 ``Middlebury(root, split="F")`` looks, and ``trainingF/`` is what MiddEval3's ``runeval F`` walks
 when the SDK is unpacked into ``MiddEval3/``; ``2014/<scene>/`` is where its ``split="2014"``
@@ -38,27 +42,14 @@ from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError
 from synth._util.json_records import json_bytes, read_json_object
 from synth.dataset.storage.fs import FsPath, dataset_path, write_bytes
-from synth.write.formats import KITTI_ROOT
+from synth.formats import DATASET_FORMATS, get_layout
 
-__all__ = ["LAYOUT_VERSION", "MIDDEVAL_ROOT", "MIDDEVAL_SCENES", "SCENE_LIST", "MIDDLEBURY_2014",
-           "KITTI_TRAINING", "KITTI_SAMPLES",
-           "STAGING", "RECORDS", "SAMPLE_DIR", "METADATA", "sample_parent", "sample_dir", "sample_dirs",
-           "tools_root", "record_path", "dataset_format", "check_layout", "write_scene_list",
-           "upgrade_dataset"]
+__all__ = ["LAYOUT_VERSION", "RECORDS", "SAMPLE_DIR", "METADATA", "sample_parent", "sample_dir",
+           "sample_dirs", "tools_root", "record_path", "dataset_format", "check_layout",
+           "write_scene_list", "upgrade_dataset"]
 
 #: Version of the directory layout, ``layout`` in ``dataset.json`` (absent: layout 1).
 LAYOUT_VERSION = 2
-#: The MiddEval3 root of a Middlebury-format dataset, and its scene folder inside it.
-MIDDEVAL_ROOT = "MiddEval3"
-MIDDEVAL_SCENES = f"{MIDDEVAL_ROOT}/trainingF"
-#: The scene folders of a ``middlebury2014`` dataset (RAFT-Stereo's ``root/2014/*``).
-MIDDLEBURY_2014 = "2014"
-#: The KITTI root of a KITTI-format dataset (``image_2/`` ...), and its sample folders
-#: (scene.json, sample.json) inside it.
-KITTI_TRAINING = KITTI_ROOT
-KITTI_SAMPLES = f"{KITTI_TRAINING}/samples"
-#: RAFT-Stereo's list of the Middlebury scenes to load, inside ``MIDDEVAL_ROOT``.
-SCENE_LIST = "official_train.txt"
 #: Folder of the completion records, ``records/NNNNNN.json``, at the dataset's root.
 RECORDS = "records"
 #: Name of a sample folder: its index on six digits.
@@ -67,13 +58,8 @@ SAMPLE_DIR = re.compile(r"^\d{6}$")
 METADATA = ("dataset.json", "manifest.jsonl", "manifest.csv", ".lock", "shards.json")
 _SAMPLE_NAME = SAMPLE_DIR
 _LEGACY_RECORD = "files.json"
-#: Samples of a ``webdataset`` dataset not yet in a complete shard (:mod:`synth.dataset.storage.shards`).
-STAGING = ".staging"
-_PARENTS = {"middlebury": MIDDEVAL_SCENES, "middlebury2014": MIDDLEBURY_2014,
-            "kitti": KITTI_SAMPLES, "webdataset": STAGING}
-#: The folder of each format that holds every file of its samples (and nothing else).
-_TOOLS_ROOTS = {"middlebury": MIDDEVAL_ROOT, "middlebury2014": MIDDLEBURY_2014,
-                "kitti": KITTI_TRAINING, "webdataset": STAGING}
+#: The formats stereoforge wrote in layout 1.
+_LAYOUT_1_FORMATS = ("middlebury", "middlebury2014", "kitti", "webdataset")
 
 
 def _root(root: str | Path | FsPath) -> Path | FsPath:
@@ -82,23 +68,25 @@ def _root(root: str | Path | FsPath) -> Path | FsPath:
 
 
 def sample_parent(root: str | Path, fmt: str) -> Path:
-    """The folder holding the sample folders of a dataset of format ``fmt``."""
+    """The folder holding the sample folders of a dataset of format ``fmt``
+    (:attr:`synth.formats.base.Layout.sample_parent`)."""
     try:
-        return _root(root) / _PARENTS[fmt]
-    except KeyError:
-        raise ValueError(f"fmt: expected one of {', '.join(_PARENTS)}, got {fmt!r}") from None
+        return _root(root) / get_layout(fmt).sample_parent
+    except ValueError:
+        raise ValueError(f"fmt: expected one of {', '.join(DATASET_FORMATS)}, got {fmt!r}") from None
 
 
 def sample_dir(root: str | Path, fmt: str, index: int) -> Path:
-    """The folder of sample ``index``: ``MiddEval3/trainingF/NNNNNN``, ``2014/NNNNNN`` or
-    ``training/samples/NNNNNN``."""
+    """The folder of sample ``index``: ``MiddEval3/trainingF/NNNNNN``, ``2014/NNNNNN``,
+    ``training/samples/NNNNNN`` ... (:meth:`synth.formats.base.Layout.sample_dir`)."""
     return sample_parent(root, fmt) / f"{int(index):06d}"
 
 
 def tools_root(root: str | Path, fmt: str) -> Path:
     """The folder of a dataset of format ``fmt`` that the tools read (``MiddEval3``, ``2014``,
-    ``training``; ``.staging`` of ``webdataset``): it holds the files of its samples only."""
-    return _root(root) / _TOOLS_ROOTS[fmt]
+    ``training``, ``FlyingThings3D`` ...; ``.staging`` of ``webdataset``): it holds the files of
+    its samples only."""
+    return _root(root) / get_layout(fmt).tools_root
 
 
 def record_path(root: str | Path, index: int) -> Path:
@@ -107,7 +95,7 @@ def record_path(root: str | Path, index: int) -> Path:
 
 
 def dataset_format(root: str | Path) -> str:
-    """The format (``middlebury``, ``middlebury2014``, ``kitti``, ``webdataset``) named by
+    """The format (one of :data:`synth.formats.DATASET_FORMATS`) named by
     ``root/dataset.json``.
 
     Raises :exc:`DatasetError` when there is no ``dataset.json`` or it names another format.
@@ -116,8 +104,9 @@ def dataset_format(root: str | Path) -> str:
     if not path.is_file():
         raise DatasetError(f"{root} has no dataset.json; pass a directory made by run_dataset")
     fmt = read_json_object(path, what="dataset header", keys={"format": str})["format"]
-    if fmt not in _PARENTS:
-        raise DatasetError(f"{path} names format {fmt!r}; expected one of {', '.join(_PARENTS)}")
+    if fmt not in DATASET_FORMATS:
+        raise DatasetError(f"{path} names format {fmt!r}; expected one of "
+                           f"{', '.join(DATASET_FORMATS)}")
     return fmt
 
 
@@ -155,8 +144,7 @@ def sample_dirs(root: str | Path) -> Iterator[Path]:
     root = _root(root)
     if _legacy_samples(root):
         check_layout(root)
-    for fmt in _PARENTS:
-        parent = sample_parent(root, fmt)
+    for parent in dict.fromkeys(sample_parent(root, name) for name in DATASET_FORMATS):
         if parent.is_dir():
             for d in parent.iterdir():
                 if _SAMPLE_NAME.match(d.name) and (d / "sample.json").is_file():
@@ -164,11 +152,13 @@ def sample_dirs(root: str | Path) -> Iterator[Path]:
 
 
 def write_scene_list(root: str | Path, fmt: str, names: list[str]) -> None:
-    """``MiddEval3/official_train.txt``: the scene names RAFT-Stereo's Middlebury loader keeps."""
-    if fmt == "middlebury":
-        text = "".join(f"{n}\n" for n in sorted(names))
-        (_root(root) / MIDDEVAL_ROOT).mkdir(parents=True, exist_ok=True)
-        write_bytes(_root(root) / MIDDEVAL_ROOT / SCENE_LIST, text.encode())
+    """The files of the whole dataset (:meth:`synth.formats.base.Layout.finish_files`: the
+    scene list ``MiddEval3/official_train.txt`` RAFT-Stereo's Middlebury loader keeps, the list
+    files of ``sceneflow``), from the complete samples' folder names."""
+    for rel, data in get_layout(fmt).finish_files(sorted(names)).items():
+        path = _root(root) / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_bytes(path, data)
 
 
 def upgrade_dataset(root: str | Path) -> int:
@@ -194,9 +184,9 @@ def upgrade_dataset(root: str | Path) -> int:
         raise DatasetError(f"{root} has no dataset.json; pass a directory made by run_dataset")
     header = read_json_object(path, what="dataset header")
     fmt = header.get("format")
-    if fmt not in _PARENTS:
-        raise DatasetError(f"{path} names format {fmt!r}; only {', '.join(_PARENTS)} datasets of "
-                           "layout 1 exist to upgrade")
+    if fmt not in _LAYOUT_1_FORMATS:
+        raise DatasetError(f"{path} names format {fmt!r}; only {', '.join(_LAYOUT_1_FORMATS)} "
+                           "datasets of layout 1 exist to upgrade")
     parent = sample_parent(root, fmt)
     parent.mkdir(parents=True, exist_ok=True)
     moved = 0

@@ -41,6 +41,7 @@ from collections.abc import Callable
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import DatasetError, ParameterError
 from synth._util.json_records import read_json_object
+from synth.formats import get_layout
 from synth.dataset.storage.fs import FsPath, dataset_path
 
 __all__ = ["DEFAULT_SHARD_SIZE", "DISP_ENCODINGS", "FIELDS", "INDEX", "check_disp_encoding",
@@ -92,7 +93,7 @@ def parse_size(text: str) -> int:
 
 def check_shard_option(fmt: str, shard_size: int | None) -> int | None:
     """The shard size to use for ``fmt``; a shard size with a format that has no shards is refused."""
-    if fmt != "webdataset":
+    if get_layout(fmt).capacity.sample_folders:
         if shard_size is not None:
             raise ParameterError(f"shard_size applies to fmt='webdataset' only (tar shards); fmt={fmt!r} "
                              "writes one folder per sample: drop --shard-size or use --format "
@@ -110,7 +111,7 @@ def check_disp_encoding(fmt: str, encoding: str | None) -> str | None:
     the stereo tools read as ``.pfm``) is refused."""
     if encoding is None:
         return None
-    if fmt != "webdataset":
+    if get_layout(fmt).capacity.sample_folders:
         raise ParameterError(f"disp_encoding applies to fmt='webdataset' only (tar shards); "
                              f"fmt={fmt!r} writes the .pfm files the stereo tools read: drop "
                              "--disp-encoding or use --format webdataset")

@@ -22,6 +22,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from synth.dataset.config.parse import resized
+from synth.formats import get_layout
+
 if TYPE_CHECKING:
     from synth.dataset.config.parse import DatasetConfig
 
@@ -82,8 +85,9 @@ def bench_dataset(
     size: tuple[int, int] | None = None,
     engine: str = "local",
     address: str | None = None,
+    formats: Sequence[str] = ("middlebury",),
 ) -> list[dict]:
-    """Pairs per second of whole dataset runs, per configuration and worker count.
+    """Pairs per second of whole dataset runs, per configuration, layout and worker count.
 
     Parameters
     ----------
@@ -106,11 +110,13 @@ def bench_dataset(
     address : str, optional
         ``engine="ray"``: the Ray cluster to measure (``HOST:PORT``), joined once for every run
         instead of a local Ray.
+    formats : sequence of str
+        Layouts to write (:mod:`synth.formats`), each run in turn for every configuration.
 
     Returns
     -------
     list of dict
-        ``config, size, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
+        ``config, size, format, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
         included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
         without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
         ``pairs_per_cpu_s`` (pairs per CPU second of this process and its descendants, all
@@ -139,6 +145,12 @@ def bench_dataset(
     loaded = [load_config(name) for name in configs]  # every error before the first run
     if size is not None:
         loaded = [resized(cfg, *size) for cfg in loaded]
+    for name in formats:  # what a layout cannot hold, before the first run
+        layout = get_layout(name)
+        for cfg in loaded:
+            layout.check_config(flow=cfg.rig.errors is not None,
+                                ground_truth=tuple(cfg.ground_truth or ()), source=str(cfg.source))
+            layout.check_rig(cfg.rig, source=str(cfg.source))
     rows: list[dict] = []
     with contextlib.ExitStack() as cluster:
         if address is not None:  # joined once: every run below uses this connection
@@ -146,20 +158,22 @@ def bench_dataset(
 
             cluster.enter_context(ray_connection(address))
         for cfg in loaded:
-            for w in workers:
-                # cold: the first multi-worker run of this call also starts the worker server
-                cold = engine == "local" and w > 1 and not any(
-                    r["workers"] > 1 for r in rows)
-                rows.append(_bench_run(cfg, count, w, backend, engine, address, cold))
-            first = rows[-len(workers)]
-            for row in rows[-len(workers):]:
-                row["efficiency"] = (row["steady_pairs_per_s"] / first["steady_pairs_per_s"]
-                                     / (row["workers"] / workers[0]))
+            for layout_name in formats:
+                for w in workers:
+                    # cold: the first multi-worker run of this call also starts the worker server
+                    cold = engine == "local" and w > 1 and not any(
+                        r["workers"] > 1 for r in rows)
+                    rows.append(_bench_run(cfg, count, w, backend, engine, address, cold,
+                                           layout_name))
+                first = rows[-len(workers)]
+                for row in rows[-len(workers):]:
+                    row["efficiency"] = (row["steady_pairs_per_s"] / first["steady_pairs_per_s"]
+                                         / (row["workers"] / workers[0]))
     return rows
 
 
 def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str,
-               address: str | None, cold: bool) -> dict:
+               address: str | None, cold: bool, fmt: str = "middlebury") -> dict:
     """One run of ``count`` samples of ``cfg`` on ``w`` workers: a row of :func:`bench_dataset`
     (``efficiency`` is filled in by the caller)."""
     from synth.dataset.engine.tasks import run_tasks
@@ -167,7 +181,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, "middlebury", backend))
+        task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, fmt, backend))
         cpu0 = _cpu_seconds()
         t0 = time.perf_counter()
         done, stamps, driver = [], [], []
@@ -175,7 +189,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
                                       address=address):
             files = stamp.pop("files")
             if files is not None:  # Ray: the driver writes what the actor returned
-                commit_files(out, index, files, "middlebury")
+                commit_files(out, index, files, fmt)
             done.append(time.perf_counter())
             driver.append(time.process_time())
             stamps.append(stamp)
@@ -184,7 +198,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
         seconds = time.perf_counter() - t0
     steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
     driver_ms = 1e3 * (driver[-1] - driver[w - 1]) / (count - w) if count > w else float("nan")
-    return {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
+    return {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}", "format": fmt,
             "engine": engine, "workers": w, "pairs": count, "seconds": seconds,
             "pairs_per_s": count / seconds, "steady_pairs_per_s": steady,
             "startup_s": seconds - count / steady,
@@ -194,24 +208,6 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
             "driver_cpu_ms_per_pair": driver_ms, "efficiency": float("nan"),
             "minutes_for_35454": FLYINGTHINGS3D_PAIRS / steady / 60.0,
             "cold": cold if engine == "local" and w > 1 else None}
-
-
-def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
-    """``config`` rendering ``width x height`` pixels, ``fx`` scaled with the width.
-
-    Examples
-    --------
-    >>> from synth.dataset import load_config
-    >>> cfg = resized(load_config("flying"), 960, 540)
-    >>> cfg.rig.width, cfg.rig.height, cfg.rig.fx
-    (960, 540, 900.0)
-    """
-    from synth.dataset.config.parse import config_from_dict
-
-    data = config.to_dict()
-    data["rig"] = {**data["rig"], "width": int(width), "height": int(height),
-                   "fx": config.rig.fx * width / config.rig.width}
-    return config_from_dict(data, source=f"{config.source} at {width}x{height}")
 
 
 def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto",

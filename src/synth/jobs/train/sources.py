@@ -3,10 +3,11 @@ exact ground truth and the pixels visible in both views.
 
 A source string is one of
 
-- a stereoforge dataset folder (``stereoforge dataset``, either format with sample folders:
-  ``middlebury`` or ``kitti``), read through :class:`synth.StereoDataset`; its ``train`` split
+- a stereoforge dataset folder (``stereoforge dataset``, any format with sample folders), read
+  through :class:`synth.StereoDataset`; its ``train`` split
   is learned from, its ``val`` split gives the validation loss;
-- ``middlebury:DIR[:DIVISOR]``, ``kitti:DIR``, ``skimage:motorcycle`` — real scenes, read through
+- ``middlebury:DIR[:DIVISOR]``, ``kitti:DIR``, ``skimage:motorcycle``, ``sceneflow:DIR``,
+  ``crestereo:DIR``, ``fsd:DIR`` — real scenes (or any tree of those layouts), read through
   :func:`synth.validate.real.resolve_real` (as ``validate --real`` reads them); a plain path
   to such a folder is recognised too. All of
   their scenes are learned from (no validation split). Pixels visible in both views come from the
@@ -92,9 +93,8 @@ class TrainSource:
         data = self._splits[split]
         if isinstance(data, list):
             return data[item]
-        s = data[item]  # a StereoDataset's numpy dict
-        mask = np.where(s["valid"], np.where(s["occlusion"], 128, 255), 0).astype(np.uint8)
-        return _pair(s["left"], s["right"], s["disp"], mask)
+        s = data.sample(item)  # read back by its layout, with its occlusion mask
+        return _pair(s.left, s.right, s.disp_left, s.mask_left)
 
     def header(self) -> dict:
         return {"spec": self.spec, "name": self.name, "hash": self.hash, "kind": self.kind,
@@ -140,7 +140,6 @@ def _real(spec: str) -> TrainSource:
                        {"train": pairs, "val": []})
 
 
-_REAL_KINDS = ("middlebury", "kitti", "skimage")
 _IMAGES_ONLY = ("im0.png", "view1.png", "image_2", "training/image_2")
 
 
@@ -155,7 +154,9 @@ def open_source(spec: str, *, val_fraction: float = 0.1) -> TrainSource:
     FileNotFoundError
         No such path.
     """
-    if spec.partition(":")[0] in _REAL_KINDS and ":" in spec:
+    from synth.validate.real import SCHEMES
+
+    if spec.partition(":")[0] in SCHEMES and ":" in spec:
         return _real(spec)
     root = Path(spec).expanduser()
     if not root.exists():

@@ -1,0 +1,252 @@
+"""The interface every output layout implements: :class:`Layout` and what it can hold
+(:class:`Capacity`).
+
+A layout answers four questions, and nothing outside :mod:`synth.formats` asks a format's name:
+
+- **where** a sample's files go: its folder of stereoforge's own files (``scene.json``,
+  ``sample.json``: :meth:`Layout.sample_dir`), the folder the tools read (:attr:`Layout.tools_root`),
+  and which of the files it writes sit outside the sample folder (:attr:`Layout.placed`);
+- **writing** a rendered pair (:meth:`Layout.write_files`) and the files a whole dataset gets
+  (:meth:`Layout.finish_files`: scene lists, list files);
+- **reading** a sample back as one :class:`matcher.io.StereoSample` (:meth:`Layout.read`; a tree
+  of the layout made elsewhere: :meth:`Layout.discover`, :meth:`Layout.read_key`);
+- **what it can hold** (:attr:`Layout.capacity`), checked before anything is rendered
+  (:meth:`Layout.check_rig`, :meth:`Layout.check_config`).
+
+The folder a pair is written into (``dest``) stands for the sample folder: a file at
+``dest/<name>`` ends in the sample folder, a file at ``dest/<p>/...`` with ``p`` in
+:attr:`Layout.placed` at ``<dataset>/<p>/...`` (:mod:`synth.dataset.storage.commit` moves them).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from matcher.io import StereoSample, write_all_atomic
+from stereoforge.errors import DatasetError, ParameterError
+
+__all__ = ["JPEG_QUALITY", "Capacity", "Layout", "calib_from_rig", "fill_occlusion", "ndisp_for",
+           "swap_folder", "write_tree"]
+
+#: Quality of the JPEG images of the layouts that store JPEG (no chroma subsampling).
+JPEG_QUALITY = 95
+
+
+@dataclass(frozen=True)
+class Capacity:
+    """What a layout can hold.
+
+    Attributes
+    ----------
+    right_disparity : bool
+        The right view's ground truth is written.
+    flow : bool
+        The exact 2-D flow of a rig with camera errors (``flow0.flo``) is written.
+    extra_ground_truth : bool
+        The optional ground truth of :mod:`synth.write.ground_truth` (depth, normals, ...) has a
+        place beside the files.
+    disp_quantum : float or None
+        Step of the stored disparity in pixels (KITTI 1/256, CREStereo 1/32, FSD 1/1000);
+        ``None``: float32, exact.
+    disp_max : float or None
+        Largest disparity the files can hold (pixels); ``None``: unbounded.
+    lossless : bool
+        Images are stored without loss (PNG); ``False``: JPEG (:func:`matcher.io.encode_jpeg`).
+    sample_folders : bool
+        Samples can be read one by one from folders (``False``: tar shards).
+    """
+
+    right_disparity: bool
+    flow: bool = False
+    extra_ground_truth: bool = False
+    disp_quantum: float | None = None
+    disp_max: float | None = None
+    lossless: bool = True
+    sample_folders: bool = True
+
+
+def calib_from_rig(rig: dict[str, Any]) -> dict[str, float]:
+    """``fx, fy, cx, cy`` (pixels) and ``baseline`` (metres) of a ``scene.json`` rig record."""
+    return {k: float(rig[k]) for k in ("fx", "fy", "cx", "cy", "baseline")}
+
+
+def fill_occlusion(sample: StereoSample) -> tuple[np.ndarray, str]:
+    """The occlusion mask of a sample (255 visible in both views, 128 occluded, 0 no ground
+    truth) and how it was made: its own mask, else a left-right check of its ground truths
+    (:func:`matcher.regions.occlusion_from_disparities`; the left one warped to the right view
+    when there is no right one)."""
+    from matcher.regions import occlusion_from_disparities
+
+    gt = sample.disp_left
+    if sample.mask_left is not None:
+        return (np.where(np.isfinite(gt), sample.mask_left, 0).astype(np.uint8),
+                "the scene's own occlusion mask")
+    if sample.disp_right is not None:
+        return (occlusion_from_disparities(gt, sample.disp_right),
+                "left-right check of the left and right ground truths")
+    return (occlusion_from_disparities(gt),
+            "left-right check: the left ground truth warped to the right view")
+
+
+class Layout:
+    """One output layout (subclassed once per layout, registered in :mod:`synth.formats`).
+
+    Attributes
+    ----------
+    name : str
+        The ``--format`` name.
+    title : str
+        What it is, for messages and docs.
+    capacity : Capacity
+    tools_root : str
+        The dataset's folder that the tools read: it holds the files of samples only (and those
+        of :meth:`finish_files`).
+    sample_parent : str
+        The folder holding the sample folders ``NNNNNN/`` (``scene.json``, ``sample.json``).
+    placed : tuple of str
+        First parts of the paths under ``dest`` (:meth:`write_files`) that are paths in the
+        dataset rather than in the sample folder.
+    """
+
+    name: str = ""
+    title: str = ""
+    capacity: Capacity = Capacity(right_disparity=True)
+    tools_root: str = ""
+    sample_parent: str = ""
+    placed: tuple[str, ...] = ()
+
+    @property
+    def writes_as(self) -> str:
+        """The layout whose files a sample of this one is written as before it is stored
+        (``webdataset``: ``middlebury`` folders, packed into shards); usually itself."""
+        return self.name
+
+    # ------------------------------------------------------------------ where
+    def sample_dir(self, root: Any, index: int) -> Any:
+        """The folder of sample ``index`` (``root`` a :class:`~pathlib.Path` or an fsspec path)."""
+        return root / self.sample_parent / f"{int(index):06d}"
+
+    def dataset_path(self, rel: str, index: int) -> str:
+        """The path in the dataset of a file written at ``dest/rel`` for sample ``index``."""
+        if rel.split("/", 1)[0] in self.placed:
+            return rel
+        return f"{self.sample_parent}/{int(index):06d}/{rel}"
+
+    # ------------------------------------------------------------------ checks
+    def check_rig(self, rig: Any, *, source: str) -> None:
+        """Refuse a rig whose disparities the files cannot hold, before anything is rendered.
+
+        A rendered point lies between the rig's ``near`` and ``far`` planes, so its disparity
+        lies in ``[fx B / far, fx B / near]``. Above :attr:`Capacity.disp_max`, or below half a
+        quantum (it would be stored as "no ground truth"), is refused: never clipped in silence.
+        """
+        cap = self.capacity
+        if cap.disp_max is None and cap.disp_quantum is None:
+            return
+        fb = float(rig.fx) * float(rig.baseline)
+        largest, smallest = fb / float(rig.near), fb / float(rig.far)
+        if cap.disp_max is not None and largest > cap.disp_max:
+            raise ParameterError(
+                f"{source}: --format {self.name} holds disparities up to {cap.disp_max:g} px, but "
+                f"this rig makes up to fx*baseline/near = {fb:g}/{float(rig.near):g} = "
+                f"{largest:.4g} px; set [rig] near >= {fb / cap.disp_max:.4g} (m), a smaller "
+                "baseline or focal length, or a layout with float disparities (--format "
+                "sceneflow or middlebury)")
+        if cap.disp_quantum is not None and smallest < cap.disp_quantum / 2:
+            raise ParameterError(
+                f"{source}: --format {self.name} stores disparities in steps of "
+                f"{cap.disp_quantum:g} px, but this rig makes disparities down to "
+                f"fx*baseline/far = {smallest:.4g} px, which would read back as 'no ground "
+                f"truth'; set [rig] far <= {2 * fb / cap.disp_quantum:.6g} (m), or use a layout "
+                "with float disparities (--format sceneflow or middlebury)")
+
+    def check_config(self, *, flow: bool, ground_truth: tuple[str, ...], source: str) -> None:
+        """Refuse what the layout has no place for: a rig's flow, the optional ground truth."""
+        if flow and not self.capacity.flow:
+            raise DatasetError(f"{source}: the [rig] camera errors give each sample a flow0.flo, "
+                               f"which the {self.title} layout cannot hold; use --format "
+                               "middlebury (or webdataset)")
+        if ground_truth and not self.capacity.extra_ground_truth:
+            raise ParameterError(f"{source}: ground_truth = {list(ground_truth)} has no place in "
+                                 f"the {self.title} layout; use --format middlebury or "
+                                 "webdataset, or drop ground_truth")
+
+    # ------------------------------------------------------------------ writing
+    def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
+                    fsync: bool) -> list[Path]:
+        """Write the layout's files of ``pair`` under ``dest`` (see the module docstring);
+        ``clean`` is the pair before the sensor and photometric models (or ``pair``)."""
+        raise NotImplementedError
+
+    def finish_files(self, names: list[str]) -> dict[str, bytes]:
+        """The files of the whole dataset (path in the dataset -> bytes: scene lists, list
+        files), from the complete samples' folder names; written after every run, checked by
+        ``dataset --verify``. Default: none."""
+        return {}
+
+    # ------------------------------------------------------------------ reading
+    def key(self, index: int) -> str:
+        """The key of sample ``index`` of a stereoforge dataset, for :meth:`read_key`."""
+        raise NotImplementedError
+
+    def read_key(self, root: Path, key: str) -> StereoSample:
+        """One sample of a tree of this layout (``root``: the folder a training codebase is
+        given; ``key``: one of :meth:`discover`)."""
+        raise NotImplementedError
+
+    def discover(self, root: Path) -> list[str]:
+        """The keys of every sample with ground truth in a tree of this layout, sorted."""
+        raise NotImplementedError
+
+    def read(self, root: Path, index: int) -> StereoSample:
+        """Sample ``index`` of a stereoforge dataset in ``root``: the layout's files, the
+        occlusion mask filled where the layout has none (:func:`fill_occlusion`), and
+        ``calib`` from the sample's ``scene.json``."""
+        sample = self.read_key(Path(root), self.key(index))
+        mask, how = fill_occlusion(sample)
+        folder = self.sample_dir(Path(root), index)
+        rig = json.loads((folder / "scene.json").read_text())["rig"]
+        return StereoSample(sample.left, sample.right, sample.disp_left, sample.disp_right,
+                            f"{int(index):06d}", {**sample.meta, "occlusion": how}, mask,
+                            calib=calib_from_rig(rig), flow_left=sample.flow_left)
+
+    def __repr__(self) -> str:
+        return f"<layout {self.name}: {self.title}>"
+
+
+def write_tree(dest: Path, files: dict[str, bytes], *, fsync: bool) -> list[Path]:
+    """Write already-encoded ``files`` (path under ``dest`` -> bytes), each atomically, making
+    their folders; return their paths in order."""
+    paths = {dest / rel: data for rel, data in files.items()}
+    for path in paths:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    return write_all_atomic(paths, fsync=fsync)
+
+
+def swap_folder(path: str, old: str, new: str) -> str:
+    """``path`` (``/``-separated) with its one folder or file named ``old`` renamed ``new``:
+    how the training codebases find a sample's other files, without touching other names.
+
+    Examples
+    --------
+    >>> swap_folder("frames_cleanpass/TRAIN/A/0000/left/0001.png", "left", "right")
+    'frames_cleanpass/TRAIN/A/0000/right/0001.png'
+    """
+    parts = path.split("/")
+    if parts.count(old) != 1:
+        raise ValueError(f"{path}: expected one folder named {old!r}")
+    parts[parts.index(old)] = new
+    return "/".join(parts)
+
+
+def ndisp_for(disp: np.ndarray) -> int:
+    """A search bound above the largest finite disparity: ``16 * ceil((ceil(max) + 1) / 16)``."""
+    finite = disp[np.isfinite(disp)]
+    vmax = math.ceil(float(finite.max())) if finite.size else 0
+    return 16 * math.ceil((vmax + 1) / 16)

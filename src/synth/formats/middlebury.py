@@ -1,0 +1,103 @@
+"""``--format middlebury``: MiddEval3 scene folders, where RAFT-Stereo and the MiddEval3 SDK look.
+
+::
+
+    MiddEval3/official_train.txt        the complete samples' names (RAFT-Stereo's scene list)
+    MiddEval3/trainingF/000000/         im0.png im1.png [im1E.png im1L.png] disp0GT.pfm
+                                        disp1GT.pfm mask0nocc.png calib.txt [flow0.flo]
+                                        scene.json sample.json [preview.png]
+
+``trainingF/`` is what RAFT-Stereo's ``Middlebury(root, split="F")`` and MiddEval3's ``runeval F``
+walk; the sample folder is the scene folder, so stereoforge's ``scene.json`` and ``sample.json``
+sit beside the files (the tools ignore them). See docs/formats.md.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from matcher.io import (StereoSample, atomic_write_bytes, encode_flo, load_middlebury_2014,
+                        read_flo, write_middlebury)
+from synth.formats.base import Capacity, Layout
+
+__all__ = ["MiddleburyLayout", "LAYOUT", "calib_for"]
+
+#: RAFT-Stereo's list of the Middlebury scenes to load, inside the MiddEval3 root.
+SCENE_LIST = "official_train.txt"
+
+
+def calib_for(pair: Any) -> dict:
+    """Middlebury ``calib.txt`` fields for a rendered pair (ndisp, vmin, vmax from its GT).
+
+    ``vmin``/``vmax`` bound the finite left and right disparities (floor/ceil); ``ndisp`` is
+    ``vmax + 1`` rounded up to a multiple of 16, as Middlebury's conservative search bound.
+    """
+    lo, hi = math.inf, -math.inf
+    for d in (pair.disp_left, pair.disp_right):
+        finite = np.isfinite(d)
+        lo = min(lo, float(np.min(d, where=finite, initial=np.inf)))
+        hi = max(hi, float(np.max(d, where=finite, initial=-np.inf)))
+    if lo > hi:  # no finite disparity at all
+        lo = hi = 0.0
+    vmin = int(math.floor(lo))
+    vmax = int(math.ceil(hi))
+    ndisp = int(16 * math.ceil((vmax + 1) / 16))
+    return pair.rig.middlebury_calib(ndisp=ndisp, vmin=vmin, vmax=vmax)
+
+
+def _scene_folders(root: Path) -> list[Path]:
+    """``root`` when it is a scene folder (``im0.png``), else the scene folders one or two
+    levels below it (``root/<scene>``, ``root/MiddEval3/trainingF/<scene>``-like)."""
+    if (root / "im0.png").is_file():
+        return [root]
+    found = sorted(p.parent for p in root.glob("*/im0.png"))
+    return found or sorted(p.parent for p in root.glob("*/*/im0.png"))
+
+
+class MiddleburyLayout(Layout):
+    """MiddEval3 scene folders (``layout="middeval3"`` of :func:`matcher.io.write_middlebury`)."""
+
+    name = "middlebury"
+    title = "MiddEval3"
+    capacity = Capacity(right_disparity=True, flow=True, extra_ground_truth=True)
+    tools_root = "MiddEval3"
+    sample_parent = "MiddEval3/trainingF"
+    io_layout = "middeval3"
+
+    def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
+                    fsync: bool) -> list[Path]:
+        written = list(write_middlebury(
+            dest, left=pair.left, right=pair.right, disp_left=pair.disp_left,
+            disp_right=pair.disp_right, mask_left=pair.mask_left, calib=calib_for(pair),
+            fsync=fsync, right_exposure=pair.right_exposure, right_lighting=pair.right_lighting,
+            highlight_left=pair.highlight_left, highlight_right=pair.highlight_right,
+            layout=self.io_layout))
+        if pair.flow_left is not None:  # the real cameras' exact correspondence
+            written.append(atomic_write_bytes(dest / "flow0.flo", encode_flo(pair.flow_left),
+                                              fsync=fsync))
+        return written
+
+    def finish_files(self, names: list[str]) -> dict[str, bytes]:
+        """``MiddEval3/official_train.txt``: the scene names RAFT-Stereo's loader keeps."""
+        return {f"{self.tools_root}/{SCENE_LIST}": "".join(f"{n}\n" for n in sorted(names)).encode()}
+
+    def key(self, index: int) -> str:
+        return f"{self.sample_parent}/{int(index):06d}"
+
+    def read_key(self, root: Path, key: str) -> StereoSample:
+        folder = Path(root) / key
+        s = load_middlebury_2014(folder)
+        flow = read_flo(folder / "flow0.flo") if (folder / "flow0.flo").is_file() else None
+        return StereoSample(s.left, s.right, s.disp_left, s.disp_right, s.name,
+                            {**s.meta, "layout": self.name}, s.mask_left, flow_left=flow)
+
+    def discover(self, root: Path) -> list[str]:
+        root = Path(root)
+        return [p.relative_to(root).as_posix() or "." for p in _scene_folders(root)]
+
+
+LAYOUT = MiddleburyLayout()
