@@ -238,7 +238,8 @@ def test_a_trained_model_is_a_matcher_everywhere(data, tmp_path):
     assert r.stdout.startswith("learned:m D=32:")
 
 
-@pytest.mark.parametrize("fmt", ["middlebury", "kitti", "middlebury2014"])
+@pytest.mark.parametrize("fmt", ["middlebury", "kitti", "middlebury2014", "sceneflow",
+                                 "crestereo", "fsd"])
 def test_a_torch_dataloader_with_two_workers_reads_stereodataset(renderer, tmp_path, fmt):
     out = tmp_path / fmt
     run_dataset(loads_config(CONFIG), out=out, fmt=fmt, count=4, progress=False)
