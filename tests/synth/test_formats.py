@@ -340,3 +340,16 @@ def test_eval_dataset_scores_every_layout(datasets, fmt, tmp_path):
         rows = list(csv.DictReader(f))
     assert {r["region"] for r in rows} == {"all", "nonocc", "occluded"}
     assert len({r["index"] for r in rows}) == 4 and all(r["error"] == "" for r in rows)
+
+
+@pytest.mark.gl
+def test_compare_across_layouts_on_the_command_line(datasets):
+    from synth.cli import main
+
+    a, b = str(datasets["middlebury"]), str(datasets["sceneflow"])
+    result = CliRunner().invoke(main, ["dataset", "--compare", a, b])
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[-1] == (f"{a} vs {b}: the same samples (pixels, ground "
+                                              "truth within the quantum, calibration)")
+    result = CliRunner().invoke(main, ["dataset", "--compare", a, b, "--bytes"])
+    assert result.exit_code == 2 and "cannot be byte-identical" in result.output

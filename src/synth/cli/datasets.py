@@ -175,6 +175,10 @@ def _compare(a: str, b: str, *, require_bytes: bool) -> None:
 
     try:
         formats = dataset_formats(Path(a), Path(b)) if "://" not in a + b else None
+        if formats and require_bytes:
+            raise click.BadParameter(f"{a} is --format {formats[0]} and {b} --format "
+                                     f"{formats[1]}: their files cannot be byte-identical; drop "
+                                     "--bytes to compare their samples", param_hint="--bytes")
         if formats:  # two layouts: sample by sample, within each layout's quantum
             click.echo(f"{a} is --format {formats[0]}, {b} --format {formats[1]}: comparing "
                        "samples (pixels, ground truth within the quantum, calibration)")
