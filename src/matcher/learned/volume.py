@@ -28,8 +28,8 @@ __all__ = ["BYTES_PER_ENTRY", "CHUNK_BYTES", "volume_disparity"]
 
 #: Most bytes of working tensors per chunk, by device type (others use the CPU's).
 CHUNK_BYTES = {"cpu": 64 << 20, "cuda": 4 << 30}
-#: Bytes of working tensors per volume entry (float32 sum and product, int32 cost, int64 sums).
-BYTES_PER_ENTRY = 48
+#: Bytes of working tensors per volume entry at the peak (the box sums' int64 copies), rounded up.
+BYTES_PER_ENTRY = 64
 _COST_SENTINEL = 65535
 _AGG_SENTINEL = 0xFFFFFFFF
 _TOP = 65534.0
