@@ -17,10 +17,14 @@
   child is killed if this process dies (Linux ``PR_SET_PDEATHSIG``; Linux ties it to the
   *thread* that started the child, so a child started from a thread that then ends is killed
   too, and the next call starts a new one).
-- ``learned:MODEL.pt``: a model file of the reference learned matcher (:mod:`matcher.learned`,
-  made by ``stereoforge train``), run in this process through :func:`matcher.learned.match_learned`
-  with the inference steps its header names; takes RGB or grey uint8 views. Needs PyTorch (the
-  extra ``learn``); the file is read once, here, so a bad file fails before any pair is matched.
+- ``learned:MODEL.pt`` or ``learned:MODEL.pt?device=DEVICE``: a model file of the reference
+  learned matcher (:mod:`matcher.learned`, made by ``stereoforge train``), run in this process
+  through :func:`matcher.learned.match_learned` with the inference steps its header names; takes
+  RGB or grey uint8 views. ``DEVICE`` is ``auto`` (CUDA where torch sees a GPU, else the CPU),
+  ``cpu``, ``cuda`` or ``cuda:N``; without ``?device=`` the environment variable
+  ``STEREOFORGE_DEVICE`` names it, else ``auto``. Needs PyTorch (the extra ``learn``); the file
+  is read and the device checked once, here, so a bad file or a device torch cannot use fails
+  before any pair is matched.
 - ``cmd:TEMPLATE``: any program, a shell command line with ``{left}`` and ``{right}`` (PNG
   images the adapter writes), ``{out}`` (a PFM the program writes) or ``{out_png}`` (a KITTI-style
   16-bit PNG, disparity x 256, 0 = no estimate) and ``{max_disparity}``. Every path is
@@ -35,6 +39,7 @@ returned. :meth:`Matcher.__call__` raises :class:`MatcherFailure` instead.
 
 from __future__ import annotations
 
+import os
 import shlex
 import time
 from dataclasses import dataclass, field
@@ -132,7 +137,9 @@ class Matcher:
 
             start = time.perf_counter()
             try:
-                res = match_learned(left, right, self._target[0], max_disparity=max_disparity)
+                model, device = self._target
+                res = match_learned(left, right, model, max_disparity=max_disparity,
+                                    device=device)
             except Exception as exc:
                 raise MatcherFailure(f"crashed: {type(exc).__name__}: {one_line(exc)}") from None
             return res.disparity, time.perf_counter() - start
@@ -188,22 +195,52 @@ def _builtin(spec: str, timeout: float) -> Matcher:
                    _target=(name, window))
 
 
+#: Environment variable naming the device of ``learned:`` matchers whose string names none.
+DEVICE_ENV = "STEREOFORGE_DEVICE"
+
+
+def _learned_options(spec: str, query: str) -> dict:
+    """``KEY=VALUE&...`` after the model path's ``?``; the only key is ``device``."""
+    options = {}
+    for item in query.split("&"):
+        key, sep, value = item.partition("=")
+        key = key.strip().lower()
+        if key != "device" or not sep or not value.strip():
+            raise MatcherError(f"matcher {spec!r}: after '?' a learned matcher takes device=auto, "
+                               f"cpu, cuda or cuda:N, got {item!r}; e.g. learned:MODEL.pt?device=cpu")
+        options[key] = value.strip()
+    return options
+
+
 def _learned(spec: str, timeout: float) -> Matcher:
-    path = spec[len("learned:"):].strip()
+    path, sep, query = spec[len("learned:"):].strip().partition("?")
+    path = path.strip()
     if not path:
         raise MatcherError(f"matcher {spec!r}: a learned matcher is learned:MODEL.pt (a file made "
                            "by stereoforge train)")
+    options = _learned_options(spec, query) if sep else {}
     try:
         from matcher.learned import ModelError, load_model
+        from matcher.learned.device import resolve_device
     except ImportError as exc:
         raise MatcherError(f"matcher {spec!r}: learned matchers need PyTorch ({one_line(exc)}); "
                            "install the extra: pip install 'stereoforge[learn]'") from None
+    from stereoforge.errors import ParameterError
+
+    if "device" in options:  # the string wins over the environment
+        value, what = options["device"], f"matcher {spec!r}: device"
+    else:
+        value, what = os.environ.get(DEVICE_ENV, "").strip() or "auto", f"{DEVICE_ENV}"
+    try:
+        device = resolve_device(value, what)
+    except ParameterError as exc:
+        raise MatcherError(str(exc)) from None
     try:
         model = load_model(path)
     except (ModelError, FileNotFoundError) as exc:
         raise MatcherError(f"matcher {spec!r}: {exc}") from None
     return Matcher(spec=spec, name=f"learned:{Path(path).stem}", kind="learned", timeout=timeout,
-                   _target=(model,))
+                   _target=(model, device))
 
 
 def resolve_matcher(spec: str, *, timeout: float = 60.0) -> Matcher:

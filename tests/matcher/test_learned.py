@@ -209,3 +209,141 @@ def test_learned_matcher_string_errors(tmp_path):
         resolve_matcher(f"learned:{tmp_path}/bad.pt")
     with pytest.raises(MatcherError, match="learned:MODEL.pt"):
         resolve_matcher("learned:")
+
+
+# ------------------------------------------------------------------ the torch pipeline
+def _both_paths(left, right, m, **kw):
+    a = match_learned(left, right, m, pipeline="numba", **kw).disparity
+    b = match_learned(left, right, m, pipeline="torch", **kw).disparity
+    return a, b
+
+
+def _assert_same_disparity(a, b):
+    """Integer disparities and the invalid mask exactly, sub-pixel values within 1e-4 px."""
+    np.testing.assert_array_equal(np.isinf(a), np.isinf(b))
+    ok = np.isfinite(a)
+    np.testing.assert_array_equal(np.floor(a[ok]) == a[ok], np.floor(b[ok]) == b[ok])
+    np.testing.assert_allclose(b[ok], a[ok], rtol=0, atol=1e-4)
+
+
+@pytest.mark.parametrize("shape, n_disp", [((40, 72), 16), ((23, 41), 40), ((9, 12), 11)])
+@pytest.mark.parametrize("aggregate", [1, 3, 7])
+@pytest.mark.parametrize("lr_check", [False, True])
+def test_torch_pipeline_equals_the_numba_path(shape, n_disp, aggregate, lr_check):
+    m = _model(seed=5)
+    left, right = _noise_pair(3, shape=shape, seed=7)
+    right = np.clip(right.astype(int) + np.random.default_rng(8).integers(-20, 21, shape), 0,
+                    255).astype(np.uint8)  # noise: ties, LR failures and parabolas both ways
+    for subpixel in (False, True):
+        a, b = _both_paths(left, right, m, max_disparity=n_disp, aggregate=aggregate,
+                           lr_check=lr_check, subpixel=subpixel, lr_tolerance=0)
+        _assert_same_disparity(a, b)
+        if not subpixel:
+            np.testing.assert_array_equal(a, b)  # integer disparities: exactly
+    if lr_check:
+        assert np.isinf(a).any()  # the check did reject something here
+
+
+@pytest.mark.parametrize("aggregate, lr_check", [(1, True), (5, False), (9, True)])
+def test_chunks_of_the_torch_volume_give_the_whole_volumes_disparity(monkeypatch, aggregate,
+                                                                     lr_check):
+    from matcher.learned import volume
+
+    m = _model()
+    left, right = _noise_pair(4, shape=(37, 50))
+    want = match_learned(left, right, m, max_disparity=10, aggregate=aggregate,
+                         lr_check=lr_check, pipeline="numba").disparity
+    # a chunk of 2 rows besides the box's halo: many chunks, the image's edges inside chunks
+    monkeypatch.setitem(volume.CHUNK_BYTES, "cpu",
+                        volume.BYTES_PER_ENTRY * 10 * 50 * (2 + aggregate - 1))
+    got = match_learned(left, right, m, max_disparity=10, aggregate=aggregate,
+                        lr_check=lr_check, pipeline="torch").disparity
+    np.testing.assert_array_equal(got, want)
+
+
+def test_torch_pipeline_on_a_trained_sized_network():
+    """32 maps x 4 layers (the training default): long float32 sums, costs across the range."""
+    m = _model(seed=2, arch=Architecture())
+    left, right = _noise_pair(6, shape=(30, 64), seed=3)
+    a, b = _both_paths(left, right, m, max_disparity=24, aggregate=5, lr_check=True,
+                       subpixel=True)
+    _assert_same_disparity(a, b)
+
+
+def test_pipeline_auto_is_numba_on_the_cpu_and_bad_names_are_errors(monkeypatch):
+    from stereoforge.errors import ParameterError
+
+    m = _model()
+    left, right = _noise_pair(2)
+    called = []
+    monkeypatch.setattr("matcher.learned.match.volume_disparity",
+                        lambda *a, **k: called.append(1))
+    match_learned(left, right, m, max_disparity=8)  # the CPU default: numba, not torch
+    assert called == []
+    with pytest.raises(ParameterError, match="pipeline"):
+        match_learned(left, right, m, max_disparity=8, pipeline="gpu")
+
+
+# ------------------------------------------------------------------ the device of a MATCHER
+def _no_gpu(monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 0)
+
+
+def test_learned_matcher_string_names_its_device(tmp_path, monkeypatch):
+    path = save_model(tmp_path / "net.pt", _model().net, {})
+    left, right = _noise_pair(4)
+    want = resolve_matcher(f"learned:{path}?device=cpu")(left, right, max_disparity=8)
+    _no_gpu(monkeypatch)
+    monkeypatch.delenv("STEREOFORGE_DEVICE", raising=False)
+    plain = resolve_matcher(f"learned:{path}")
+    assert plain._target[1] == "cpu" and plain.name == "learned:net"  # auto without a GPU
+    np.testing.assert_array_equal(plain(left, right, max_disparity=8), want)
+    monkeypatch.setenv("STEREOFORGE_DEVICE", "cuda")  # the environment names a device ...
+    with pytest.raises(MatcherError, match="STEREOFORGE_DEVICE: 'cuda' but torch sees no CUDA"):
+        resolve_matcher(f"learned:{path}")
+    m = resolve_matcher(f"learned:{path}?device=cpu")  # ... the string wins
+    assert m._target[1] == "cpu" and m.spec == f"learned:{path}?device=cpu"
+    monkeypatch.setenv("STEREOFORGE_DEVICE", "CPU")
+    assert resolve_matcher(f"learned:{path}")._target[1] == "cpu"
+
+
+@pytest.mark.parametrize("query, words", [
+    ("device=cuda", "'cuda' but torch sees no CUDA GPU here; use cpu"),
+    ("device=cuda:1", "'cuda:1' but torch sees no CUDA GPU"),
+    ("device=tpu", "expected auto, cpu, cuda or cuda:N, got 'tpu'"),
+    ("device=", "takes device=auto, cpu, cuda or cuda:N, got 'device='"),
+    ("aggregate=5", "takes device=auto"),
+])
+def test_bad_devices_fail_when_the_string_is_resolved(tmp_path, monkeypatch, query, words):
+    _no_gpu(monkeypatch)
+    path = save_model(tmp_path / "net.pt", _model().net, {})
+    with pytest.raises(MatcherError) as info:
+        resolve_matcher(f"learned:{path}?{query}")
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_cli_bad_device_is_one_error_line_before_any_work(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from matcher.io import encode_png
+    from synth.cli import main
+
+    _no_gpu(monkeypatch)
+    path = save_model(tmp_path / "net.pt", _model().net, {})
+    left, right = _noise_pair(3)
+    (tmp_path / "l.png").write_bytes(encode_png(left))
+    (tmp_path / "r.png").write_bytes(encode_png(right))
+    out = tmp_path / "d.pfm"
+    base = ["match", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "--max-disp", "8",
+            "--out", str(out), "--matcher"]
+    for spec, env in ((f"learned:{path}?device=cuda", {}), (f"learned:{path}?device=metal", {}),
+                      (f"learned:{path}", {"STEREOFORGE_DEVICE": "cuda:0"})):
+        r = CliRunner().invoke(main, [*base, spec], env=env)
+        lines = r.output.strip().splitlines()
+        assert r.exit_code == 2 and len(lines) == 1 and lines[0].startswith("Error: "), r.output
+        assert not out.exists()
+    r = CliRunner().invoke(main, [*base, f"learned:{path}?device=cpu"],
+                           env={"STEREOFORGE_DEVICE": "cuda"})
+    assert r.exit_code == 0, r.output
+    assert r.output.startswith("learned:net D=8:") and out.is_file()

@@ -292,3 +292,47 @@ def test_bench_transfer_trains_scores_and_draws(tmp_path):
     again = _cli(["bench", "transfer", "--configs", str(config), "--count", "4", "--minutes",
                   "0.3", "--no-ceiling", "--out", str(out)], env=env)
     assert again.returncode == 0 and "tiny-seed0.pt: reused" in again.stderr, again.stderr
+
+
+def test_one_pass_step_equals_the_crop_by_crop_step(data):
+    """The GPU's step (a batch in one pass, patches sampled at once) on the CPU: the same loss
+    and gradients as the CPU's crop-by-crop step, up to float rounding."""
+    from synth.jobs.train.loop import _batch_loss, _one_pass_loss
+
+    batch = PatchBatches(open_sources([str(data)]), seed=4, radius=3, crops=6)[2]
+    assert len({c.right.shape[1] for c in batch}) > 1  # strips of several widths: padding
+    torch.manual_seed(1)
+    net = PatchNet(Architecture(channels=8, layers=3))
+    grads = []
+    for step in (_batch_loss, _one_pass_loss):
+        net.zero_grad(set_to_none=True)
+        loss, n = step(net, batch, torch.device("cpu"))
+        loss.backward()
+        grads.append((float(loss.detach()), n, [p.grad.clone() for p in net.parameters()]))
+    (la, na, ga), (lb, nb, gb) = grads
+    assert na == nb == sum(c.ys.size for c in batch) and la > 0
+    assert lb == pytest.approx(la, rel=1e-5)
+    for a, b in zip(ga, gb, strict=True):
+        torch.testing.assert_close(b, a, rtol=1e-4, atol=1e-6)
+    assert _one_pass_loss(net, [], torch.device("cpu")) == (None, 0)
+
+
+def test_the_header_records_the_device_and_the_batch(data, tmp_path, monkeypatch):
+    from synth.jobs.train import CROPS, GPU_CROPS, default_crops
+
+    out = tmp_path / "cpu.pt"
+    _cli(["train", str(data), "--out", str(out), "--steps", "3", "--workers", "0",
+          "--device", "cpu"], check=True)
+    training = load_model(out).header["training"]
+    assert training["device"] == "cpu" and training["crops"] == CROPS == 16
+    assert training["batch"] == {"crops": 16, "crop": 32, "workers": 0, "step": "crop by crop"}
+    one = tmp_path / "one.pt"
+    code = ("from synth.jobs.train import TrainConfig, train; "
+            f"train(TrainConfig(sources=({str(data)!r},), out={str(one)!r}, steps=3, crops=5), "
+            "device='cpu', workers=0, show_progress=False, one_pass=True)")
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    assert load_model(one).header["training"]["batch"] == {"crops": 5, "crop": 32, "workers": 0,
+                                                           "step": "one pass"}
+    assert default_crops("cpu") == 16
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    assert default_crops("auto") == GPU_CROPS

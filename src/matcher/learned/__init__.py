@@ -5,8 +5,8 @@ The only package of :mod:`matcher` that imports PyTorch (the optional extra ``le
 
 - :class:`PatchNet` and :class:`Architecture` (``network``): 3 x 3 convolutions, L2-normalised
   features, cosine similarity as the matching score;
-- :func:`hinge_loss` and :func:`pair_scores` (``loss``): the training objective, one positive
-  and one negative per patch;
+- :func:`hinge_loss`, :func:`pair_scores` and :func:`batch_pair_scores` (``loss``): the training
+  objective, one positive and one negative per patch;
 - :func:`load_model` / :func:`save_model` (``model``): weights plus a header;
 - :func:`learned_cost` (``cost``) and :func:`match_learned` (``match``): whole-image inference
   through :func:`matcher.cost.aggregate_cost` and :func:`matcher.select.winner_takes_all`.
@@ -15,7 +15,7 @@ The only package of :mod:`matcher` that imports PyTorch (the optional extra ``le
 """
 
 from matcher.learned.cost import COST_SCALE, features, learned_cost
-from matcher.learned.loss import MARGIN, hinge_loss, pair_scores
+from matcher.learned.loss import MARGIN, batch_pair_scores, hinge_loss, pair_scores
 from matcher.learned.match import match_learned, resolve_device
 from matcher.learned.model import (
     INFERENCE_DEFAULTS,
@@ -36,6 +36,7 @@ __all__ = [
     "MARGIN",
     "ModelError",
     "PatchNet",
+    "batch_pair_scores",
     "features",
     "hinge_loss",
     "learned_cost",

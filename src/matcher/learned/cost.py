@@ -23,7 +23,8 @@ from matcher._validation import check_image, check_max_disparity, check_same_sha
 from matcher.learned.model import LearnedModel
 from matcher.learned.network import standardise
 
-__all__ = ["COST_SCALE", "STRIP_PIXELS", "feature_cost", "features", "learned_cost"]
+__all__ = ["COST_SCALE", "STRIP_PIXELS", "feature_cost", "feature_tensor", "features",
+           "learned_cost"]
 
 #: Cost units per unit of ``1 - cos``: costs span 0 .. 2 * COST_SCALE (16384), so a box sum over
 #: up to 511 x 511 pixels fits the uint32 of :func:`matcher.cost.aggregate_cost`.
@@ -53,19 +54,25 @@ def features(model: LearnedModel, image: np.ndarray, *, device: str | torch.devi
     (H, C, W) float32 array
         Channel-planar, the layout of the cost kernel.
     """
+    return feature_tensor(model, image, device=device).to("cpu").numpy()
+
+
+def feature_tensor(model: LearnedModel, image: np.ndarray, *,
+                   device: str | torch.device = "cpu") -> torch.Tensor:
+    """:func:`features` as an (H, C, W) float32 tensor left on ``device``."""
     grey = check_image(image, "image")
     r = model.arch.layers
     h, w = grey.shape
     padded = np.pad(standardise(grey), r, mode="edge")
     net = model.net.to(device)
-    out = np.empty((h, model.arch.channels, w), dtype=np.float32)
+    out = torch.empty((h, model.arch.channels, w), dtype=torch.float32, device=device)
     rows = max(1, STRIP_PIXELS // max(w, 1))
     with torch.inference_mode():
         for y0 in range(0, h, rows):
             y1 = min(h, y0 + rows)
             strip = torch.from_numpy(padded[y0:y1 + 2 * r])[None, None].to(device)
             feat = net(strip.contiguous(memory_format=torch.channels_last))[0]
-            out[y0:y1] = feat.permute(1, 0, 2).to("cpu").numpy()
+            out[y0:y1] = feat.permute(1, 0, 2)
     return out
 
 

@@ -15,7 +15,8 @@ from __future__ import annotations
 import torch
 from torch.nn import functional as F
 
-__all__ = ["MARGIN", "NEGATIVE_OFFSETS", "POSITIVE_OFFSET", "hinge_loss", "pair_scores"]
+__all__ = ["MARGIN", "NEGATIVE_OFFSETS", "POSITIVE_OFFSET", "batch_pair_scores", "hinge_loss",
+           "pair_scores"]
 
 #: Hinge margin ``m``.
 MARGIN = 0.2
@@ -56,6 +57,41 @@ def pair_scores(fl: torch.Tensor, fr: torch.Tensor, ys: torch.Tensor, xs: torch.
     """
     ref = fl[:, ys, xs]
     return (ref * _sample(fr, ys, x_pos)).sum(0), (ref * _sample(fr, ys, x_neg)).sum(0)
+
+
+def batch_pair_scores(fl: torch.Tensor, fr: torch.Tensor, crop: torch.Tensor, ys: torch.Tensor,
+                      xs: torch.Tensor, x_pos: torch.Tensor, x_neg: torch.Tensor,
+                      last: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """:func:`pair_scores` of the patches of a whole batch of crops at once (one pass on a GPU).
+
+    Parameters
+    ----------
+    fl : (B, C, h, w) tensor
+        Unit features of the left crops.
+    fr : (B, C, h, wr) tensor
+        Unit features of the right strips, padded on the right to a common width.
+    crop, ys, xs : (N,) int64 tensors
+        Each patch's crop and its row and column in ``fl[crop]``.
+    x_pos, x_neg : (N,) float tensors
+        Columns of its positive and negative in ``fr[crop]``, ``0 .. last``.
+    last : (N,) int64 tensor
+        The last column of the patch's own strip (its padding is never read).
+
+    Returns
+    -------
+    (s_pos, s_neg) : (N,) tensors
+        The cosines :func:`pair_scores` gives crop by crop (up to float rounding).
+    """
+    ref = fl[crop, :, ys, xs]  # (N, C)
+
+    def sample(xq: torch.Tensor) -> torch.Tensor:
+        x0 = torch.minimum(torch.floor(xq).long().clamp_(min=0), last)
+        x1 = torch.minimum(x0 + 1, last)
+        a = (xq - x0.to(xq.dtype))[:, None]
+        mixed = fr[crop, :, ys, x0] * (1.0 - a) + fr[crop, :, ys, x1] * a
+        return F.normalize(mixed, dim=1)
+
+    return (ref * sample(x_pos)).sum(1), (ref * sample(x_neg)).sum(1)
 
 
 def hinge_loss(s_pos: torch.Tensor, s_neg: torch.Tensor, *, margin: float = MARGIN

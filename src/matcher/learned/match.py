@@ -9,45 +9,40 @@ import torch
 
 from matcher._validation import check_image, check_max_disparity, check_same_shape
 from matcher.cost import aggregate_cost
-from matcher.learned.cost import COST_SCALE, feature_cost, features
+from matcher.learned.cost import COST_SCALE, feature_cost, feature_tensor
+from matcher.learned.device import resolve_device as _resolve
 from matcher.learned.model import LearnedModel, load_model
+from matcher.learned.volume import volume_disparity
 from matcher.result import MatchResult
 from matcher.select import winner_takes_all
 from stereoforge.validation import check_bool, check_int
 
-__all__ = ["VOLUME_BYTES", "match_learned", "resolve_device"]
+__all__ = ["PIPELINES", "VOLUME_BYTES", "match_learned", "resolve_device"]
 
 #: Most bytes of cost volume (uint16 cost and uint32 aggregate) held at once by match_learned.
 VOLUME_BYTES = 64 << 20
+#: Where the volume's steps run: ``numba`` (host kernels), ``torch`` (on the features' device),
+#: ``auto`` (torch when the features are on a GPU, numba on the CPU).
+PIPELINES = ("auto", "numba", "torch")
 
 
 def resolve_device(device: str) -> torch.device:
-    """``"auto"`` (CUDA when torch sees a GPU, else the CPU), ``"cpu"`` or ``"cuda[:N]"``.
+    """``"auto"`` (CUDA when torch sees a GPU, else the CPU), ``"cpu"``, ``"cuda"`` or
+    ``"cuda:N"`` (:func:`matcher.learned.device.resolve_device`) as a ``torch.device``.
 
     Raises
     ------
     ParameterError
         An unknown name, or ``cuda`` without a GPU.
     """
-    from stereoforge.errors import ParameterError
-
-    name = str(device).strip().lower()
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    if name == "cpu":
-        return torch.device("cpu")
-    if name == "cuda" or name.startswith("cuda:"):
-        if not torch.cuda.is_available():
-            raise ParameterError(f"device {device!r}: torch sees no CUDA GPU here; use --device "
-                                 "cpu (or auto)")
-        return torch.device(name)
-    raise ParameterError(f"device: expected auto, cpu or cuda[:N], got {device!r}")
+    return torch.device(_resolve(device))
 
 
 def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str | os.PathLike,
                   *, max_disparity: int, aggregate: int | None = None,
                   lr_check: bool | None = None, lr_tolerance: int = 1,
-                  subpixel: bool | None = None, device: str = "cpu") -> MatchResult:
+                  subpixel: bool | None = None, device: str = "cpu",
+                  pipeline: str = "auto") -> MatchResult:
     """Disparity of each left pixel under a learned cost.
 
     The steps are census's (:func:`matcher.match`): the cost volume
@@ -69,7 +64,12 @@ def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str
     lr_tolerance : int
         Largest accepted ``|d_L - d_R|`` of the left-right check.
     device : str
-        Where the network runs: ``cpu``, ``cuda[:N]`` or ``auto``.
+        Where the network runs: ``cpu``, ``cuda``, ``cuda:N`` or ``auto``.
+    pipeline : {"auto", "numba", "torch"}
+        Where the cost volume, aggregation, left-right check and selection run: ``numba``
+        (host kernels, strips of rows), ``torch`` (:mod:`matcher.learned.volume`, on the
+        features' device, chunks of rows), ``auto`` (torch on a GPU, numba on the CPU). Both
+        give the same disparities.
 
     Returns
     -------
@@ -93,12 +93,35 @@ def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str
         raise ParameterError(f"aggregate: expected 1 (none) or an odd box side >= 3, got {agg}")
     lr = check_bool(steps["lr_check"] if lr_check is None else lr_check, "lr_check")
     sub = check_bool(steps["subpixel"] if subpixel is None else subpixel, "subpixel")
+    lr_tolerance = check_int(lr_tolerance, "lr_tolerance", lo=0)
     left, right = check_image(left, "left"), check_image(right, "right")
     check_same_shape(left, right)
     h, w = left.shape
     n_disp = check_max_disparity(max_disparity, w)
     dev = resolve_device(device)
-    fl, fr = features(model, left, device=dev), features(model, right, device=dev)
+    if pipeline not in PIPELINES:
+        from stereoforge.errors import ParameterError
+
+        raise ParameterError(f"pipeline: expected one of {', '.join(PIPELINES)}, got {pipeline!r}")
+    fl, fr = feature_tensor(model, left, device=dev), feature_tensor(model, right, device=dev)
+    if pipeline == "torch" or (pipeline == "auto" and dev.type != "cpu"):
+        disparity = volume_disparity(fl, fr, n_disp, scale=COST_SCALE, aggregate=agg,
+                                     lr_tolerance=lr_tolerance if lr else None,
+                                     subpixel=sub).to("cpu").numpy()
+    else:
+        disparity = _numba_disparity(fl.to("cpu").numpy(), fr.to("cpu").numpy(), n_disp,
+                                     agg, lr, lr_tolerance, sub)
+    params = {"aggregate": agg, "lr_check": lr, "lr_tolerance": lr_tolerance, "subpixel": sub,
+              "cost_scale": COST_SCALE, "model": str(model.path) if model.path else None,
+              "architecture": model.arch.to_dict()}
+    return MatchResult(disparity=disparity, ops=None, method="learned", window=model.arch.patch,
+                       max_disparity=int(max_disparity), params=params)
+
+
+def _numba_disparity(fl: np.ndarray, fr: np.ndarray, n_disp: int, agg: int, lr: bool,
+                     lr_tolerance: int, sub: bool) -> np.ndarray:
+    """The host path: the volume of :func:`feature_cost` in strips of rows."""
+    h, _, w = fl.shape
     # strips of rows, each with the box's halo of rows: the aggregation of a strip's rows sees
     # the same rows (and the same edge replication at the image's top and bottom) as on the
     # whole volume, and WTA, the LR check and the parabola work row by row, so the disparity is
@@ -114,8 +137,4 @@ def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str
             cost = aggregate_cost(cost, size=agg)
         strip = winner_takes_all(cost, lr_check=lr, lr_tolerance=lr_tolerance, subpixel=sub)
         disparity[y0:y1] = strip[y0 - a0:y1 - a0]
-    params = {"aggregate": agg, "lr_check": lr, "lr_tolerance": lr_tolerance, "subpixel": sub,
-              "cost_scale": COST_SCALE, "model": str(model.path) if model.path else None,
-              "architecture": model.arch.to_dict()}
-    return MatchResult(disparity=disparity, ops=None, method="learned", window=model.arch.patch,
-                       max_disparity=int(max_disparity), params=params)
+    return disparity

@@ -217,8 +217,12 @@ def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, back
 @click.option("--device", default="auto", show_default=True, help="auto, cpu or cuda[:N].")
 @click.option("--no-ceiling", is_flag=True,
               help="Skip the in-domain ceiling (leave-one-scene-out on the real scenes).")
+@click.option("--aggregate", default=None, type=click.IntRange(min=1),
+              help="Score every learned model with this box side (1: none). Default: each "
+                   "chooses its box on pairs it did not train on (the real-scene models on a "
+                   "validation scene).")
 def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, device,
-                       no_ceiling) -> None:
+                       no_ceiling, aggregate) -> None:
     """Train the reference network on each config, score it on real scenes beside CT and SGBM."""
     import os
 
@@ -237,15 +241,19 @@ def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, 
                             count=count, minutes=minutes, seeds=[int(s) for s in seeds],
                             data=folder if (folder / "third").is_dir() else None, out=Path(out),
                             workers=workers, device=device, ceiling=not no_ceiling,
-                            log=lambda m: click.echo(m, err=True))
+                            aggregate=aggregate, log=lambda m: click.echo(m, err=True))
+    click.echo(f"post-processing: {result.post_processing}")
     click.echo(write_table(result.summary, Path(out), "transfer"))
+    if result.gap:
+        click.echo(write_table(result.gap, Path(out), "transfer-gap"))
     write_table(result.rows, Path(out), "transfer-scenes")
     write_table(result.models, Path(out), "transfer-models")
     from matcher.learned import resolve_device
 
     machine = describe_machine(backend=None)
     device = f"{device} ({resolve_device(device)})" if device == "auto" else device
+    boxes = f"all at {aggregate}x{aggregate}" if aggregate else "each chose its box on held-out pairs"
     title = (f"bad-3 per real scene; models trained {minutes:g} min each on {count} pairs "
-             f"({len(seeds)} seed(s), range bars), device {device};\n{machine.cpu}, "
+             f"({len(seeds)} seed(s), range bars), {boxes}, device {device};\n{machine.cpu}, "
              f"{machine.cores} cores, numba {machine.numba_target}")
     click.echo(f"figure: {draw_transfer(result, Path(out) / 'transfer.png', title=title)}")

@@ -34,8 +34,9 @@ __all__ = ["train_cmd"]
               help="Feature maps per layer.")
 @click.option("--layers", default=4, show_default=True, type=click.IntRange(min=1),
               help="3x3 convolutions (patch side 2*layers+1).")
-@click.option("--crops", default=16, show_default=True, type=click.IntRange(min=1),
-              help="Crops per step, each from another pair (the batch).")
+@click.option("--crops", default=None, type=click.IntRange(min=1),
+              help="Crops per step, each from another pair (the batch); default 16 on the CPU, "
+                   "256 on a GPU (there a step's crops go through the network in one pass).")
 @click.option("--crop", default=32, show_default=True, type=click.IntRange(min=4),
               help="Side of a crop's block of left pixels (its patches).")
 def train_cmd(datasets, out, minutes, steps, seed, device, resume, overwrite, workers, threads,
@@ -44,12 +45,15 @@ def train_cmd(datasets, out, minutes, steps, seed, device, resume, overwrite, wo
 
     DATASET: a stereoforge dataset folder, or real scenes with ground truth:
     middlebury:DIR[:DIVISOR], kitti:DIR, skimage:motorcycle (a plain Middlebury or KITTI folder
-    is recognised too). Use the model anywhere a MATCHER is taken: learned:MODEL.pt.
+    is recognised too). Use the model anywhere a MATCHER is taken: learned:MODEL.pt
+    (learned:MODEL.pt?device=cpu|cuda|cuda:N|auto names where it runs).
     """
-    from synth.jobs.train import TrainConfig, TrainInterrupted, train
+    from synth.jobs.train import TrainConfig, TrainInterrupted, default_crops, train
 
     if minutes is None and steps is None:
         minutes = 10.0
+    if crops is None:
+        crops = default_crops(device)
     cfg = TrainConfig(sources=tuple(datasets), out=out, minutes=minutes, steps=steps, seed=seed,
                       channels=channels, layers=layers, crops=crops, crop=crop)
     try:

@@ -6,7 +6,20 @@ into ``out/pairs/<config>`` (the dataset engine resumes a partial folder), then 
 per seed with ``stereoforge train ... --minutes M --seed S`` in a process of its own (wall time
 measured, data loading included; a model already in ``out/models`` is reused). The in-domain
 ceiling is the same network trained on the real scenes themselves, leave-one-scene-out: one
-model per held-out scene on all the others (seed 0), scored on the held-out one.
+model per held-out scene and seed, scored on the held-out scene.
+
+The ceiling is fair, at matched post-processing, in one of two ways (the table says which):
+
+- ``aggregate=None`` (default): every model chooses its box aggregation on pairs it did not
+  train on: a model of our data on its dataset's validation split (the choice in its header),
+  a real-scene model on a validation scene, the scene after the held-out one (so it trains on
+  the other scenes but those two; :func:`synth.jobs.train.aggregate_bad3` picks the box);
+- ``aggregate=N``: every learned model is scored with an ``N x N`` box (1: none), and the
+  real-scene models train on all scenes but the held-out one.
+
+:attr:`TransferResult.gap` gives, per config and seed, ours minus real-trained: mean bad-3 over
+the scenes of the model of our data minus that of the real-scene models of the same seed (each
+on the scene it did not see), and the mean and range over the seeds.
 
 Real scenes: the six Middlebury 2005/2006 scenes of ``--data`` at third size (search range
 0..83, disparity = ``disp1.png / 3``) and scikit-image's Motorcycle (Middlebury 2014, 0..63),
@@ -14,8 +27,9 @@ read as ``stereoforge validate --real`` reads them (:mod:`synth.validate.real`: 
 and the non-occluded pixels from a left-right check of the two ground truths, or the left one
 warped to the right view). Measures over all pixels with ground truth (``all``) and over the
 non-occluded ones (``nonocc``): bad-2 and bad-3 (a missing estimate counts bad) and avgerr (over
-the estimates). Matchers: each model as ``learned:MODEL`` (the inference steps of its header),
-CT-9, CT-21 (census WTA) and SGBM-5 (:func:`matcher.match` defaults).
+the estimates). Matchers: each model through :func:`matcher.learned.match_learned` (the
+left-right check and sub-pixel steps of its header, the aggregation above), CT-9, CT-21 (census
+WTA) and SGBM-5 (:func:`matcher.match` defaults).
 """
 
 from __future__ import annotations
@@ -26,7 +40,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -44,11 +58,14 @@ _SCENES = ("Moebius", "Reindeer", "Flowerpots", "Cloth2", "Midd1", "Baby1")
 
 @dataclass(frozen=True)
 class TransferResult:
-    """Per-scene rows, per-method summary rows and the models trained."""
+    """Per-scene rows, per-method summary rows, the models trained, the gap ours minus
+    real-trained per config and seed (:func:`_gap`) and how the boxes were chosen."""
 
     rows: list[dict]
     summary: list[dict]
     models: list[dict]
+    gap: list[dict] = field(default_factory=list)
+    post_processing: str = ""
 
 
 def _real_specs(data: Path | None) -> list[str]:
@@ -120,6 +137,8 @@ def _summary(rows: list[dict], methods: list[str]) -> list[dict]:
         if not mine:
             continue
         row = {"method": method, "trained_on": mine[0]["trained_on"]}
+        boxes = sorted({r["aggregate"] for r in mine if r["aggregate"] != ""})
+        row["aggregate"] = "/".join(str(a) for a in boxes)
         for key in ("bad3_all", "bad2_all", "avgerr_all", "bad3_nonocc", "bad2_nonocc"):
             # mean over scenes per seed, then mean and range over seeds
             per_seed = {}
@@ -141,41 +160,98 @@ def _summary(rows: list[dict], methods: list[str]) -> list[dict]:
     return out
 
 
+def _gap(rows: list[dict], configs: list[str], seeds: Sequence[int]) -> list[dict]:
+    """Ours minus real-trained, mean bad-3 over the scenes, per config and seed; then the mean
+    and range over the seeds."""
+    def mean(method: str, seed: int, key: str) -> float | None:
+        v = [r[key] for r in rows if r["method"] == method and r["seed"] == seed]
+        return float(np.mean(v)) if v else None
+
+    out = []
+    for name in configs:
+        gaps = []
+        for seed in seeds:
+            ours = mean(f"learned on {name}", seed, "bad3_all")
+            real = mean(f"learned on {_REAL}", seed, "bad3_all")
+            if ours is None or real is None:
+                continue
+            gaps.append(ours - real)
+            out.append({"trained_on": name, "seed": str(seed), "ours_bad3_all": round(ours, 2),
+                        "real_bad3_all": round(real, 2), "gap": round(ours - real, 2),
+                        "gap_min": "", "gap_max": ""})
+        if gaps:
+            out.append({"trained_on": name, "seed": f"mean of {len(gaps)}", "ours_bad3_all": "",
+                        "real_bad3_all": "", "gap": round(float(np.mean(gaps)), 2),
+                        "gap_min": round(min(gaps), 2), "gap_max": round(max(gaps), 2)})
+    return out
+
+
+_REAL = "real scenes, leave-one-out"
+
+
+def _check_aggregate(aggregate: int | None, n_scenes: int, ceiling: bool) -> None:
+    from stereoforge.errors import ParameterError
+
+    if aggregate is not None and (isinstance(aggregate, bool) or not isinstance(aggregate, int)
+                                  or aggregate < 1 or (aggregate > 1 and aggregate % 2 == 0)):
+        raise ParameterError(f"--aggregate: expected 1 (none) or an odd box side >= 3, got "
+                             f"{aggregate!r}")
+    need = 3 if aggregate is None else 2
+    if ceiling and n_scenes < need:
+        how = ("a held-out scene, a validation scene and one to train on"
+               if aggregate is None else "a held-out scene and one to train on")
+        raise ParameterError(f"the in-domain ceiling needs {need} real scenes ({how}), found "
+                             f"{n_scenes}; pass --data (the Middlebury folder), --aggregate N "
+                             "or --no-ceiling")
+
+
 def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), count: int = 200,
                    minutes: float = 10.0, seeds: Sequence[int] = (0,), data: Path | None = None,
                    out: Path, workers: int = 2, device: str = "auto", ceiling: bool = True,
+                   aggregate: int | None = None,
                    log: Callable[[str], None] | None = None) -> TransferResult:
-    """Train on each config (and the real scenes, leave-one-out), score on the real scenes."""
+    """Train on each config (and the real scenes, leave-one-out), score on the real scenes;
+    ``aggregate``: None, each model's box chosen on pairs it did not train on, or one box side
+    for every learned model (see the module docstring)."""
     from matcher.adapters import resolve_matcher
+    from matcher.learned.device import resolve_device
     from synth.dataset import load_config, run_dataset
 
     say = log or (lambda _m: None)
     if importlib.util.find_spec("torch") is None:  # before hours of rendering, not after
         raise ModuleNotFoundError("No module named 'torch'", name="torch")
+    device = resolve_device(device, "--device")
     for config in configs:  # a bad config fails before anything is made or trained
         load_config(config)
     specs = _real_specs(data)
+    _check_aggregate(aggregate, len(specs), ceiling)
     scenes = _scenes(specs)
     (out / "models").mkdir(parents=True, exist_ok=True)
     models: list[dict] = []
+    names = []
     for config in configs:
         name = Path(config).stem if os.sep in str(config) or str(config).endswith(".toml") \
             else str(config)
+        names.append(name)
         folder = out / "pairs" / name
         say(f"{count} pairs of {config} ...")
         run_dataset(config, folder, count=count, workers=workers, progress=False)
         for seed in seeds:
             model = out / "models" / f"{name}-seed{seed}.pt"
             info = _train([str(folder)], model, minutes, seed, device, say)
-            models.append({**info, "trained_on": name, "seed": seed, "held_out": ""})
+            models.append({**info, "trained_on": name, "seed": seed, "held_out": "",
+                           "validated_on": "its validation split"})
     if ceiling:
         say("in-domain ceiling: leave one real scene out ...")
-        for k, scene in enumerate(scenes):
-            others = [s["spec"] for j, s in enumerate(scenes) if j != k]
-            model = out / "models" / f"real-without-{scene['name']}.pt"
-            info = _train(others, model, minutes, 0, device, say)
-            models.append({**info, "trained_on": "real scenes, leave-one-out", "seed": 0,
-                           "held_out": scene["name"]})
+        for seed in seeds:
+            for k, scene in enumerate(scenes):
+                val = "" if aggregate is not None else scenes[(k + 1) % len(scenes)]["name"]
+                others = [s["spec"] for s in scenes if s["name"] not in (scene["name"], val)]
+                tag = f"-val-{val}" if val else ""
+                model = out / "models" / f"real-without-{scene['name']}{tag}-seed{seed}.pt"
+                info = _train(others, model, minutes, seed, device, say)
+                models.append({**info, "trained_on": _REAL, "seed": seed,
+                               "held_out": scene["name"], "validated_on": val})
     rows: list[dict] = []
     say("scoring on the real scenes ...")
     for label, spec in REFERENCES:
@@ -183,24 +259,43 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
         for scene in scenes:
             est = m(scene["left"], scene["right"], max_disparity=scene["max_disparity"])
             rows.append({"method": label, "trained_on": "", "seed": 0, "scene": scene["name"],
-                         **_score(est, scene)})
-    from matcher.learned import load_model
+                         "aggregate": "", **_score(est, scene)})
+    from matcher.learned import load_model, match_learned
+    from synth.jobs.train import AGGREGATES, aggregate_bad3, open_source
 
     for info in models:
-        training = load_model(info["model"]).header["training"]
+        model = load_model(info["model"])
+        training = model.header["training"]
         info.update(steps=training["steps"], patches=training["patches"],
                     train_s=training["seconds"], train_loss=training["train_loss"],
                     val_loss=training["val_loss"])
-        m = resolve_matcher(f"learned:{info['model']}")
+        if aggregate is not None:
+            agg = aggregate
+        elif info["validated_on"] and info["trained_on"] == _REAL:
+            spec = next(s["spec"] for s in scenes if s["name"] == info["validated_on"])
+            bad = aggregate_bad3(model, open_source(spec).load("train", 0), device)
+            agg = int(AGGREGATES[int(np.argmin(bad))])
+        else:
+            agg = int(model.inference["aggregate"])
+        info["aggregate"] = agg
         label = f"learned on {info['trained_on']}"
         for scene in scenes:
             if info["held_out"] and scene["name"] != info["held_out"]:
                 continue
-            est = m(scene["left"], scene["right"], max_disparity=scene["max_disparity"])
+            est = match_learned(scene["left"], scene["right"], model, aggregate=agg,
+                                max_disparity=scene["max_disparity"], device=device).disparity
             rows.append({"method": label, "trained_on": info["trained_on"], "seed": info["seed"],
-                         "scene": scene["name"], **_score(est, scene)})
+                         "scene": scene["name"], "aggregate": agg, **_score(est, scene)})
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    return TransferResult(rows, _summary(rows, methods), models)
+    how = (f"every learned model at {aggregate}x{aggregate}" if aggregate is not None else
+           "every learned model's aggregation chosen on pairs it did not train on (ours: their "
+           "validation split; real scenes: the scene after the held-out one)")
+    summary = _summary(rows, methods)
+    for row in summary:  # the table says how each row's box was chosen
+        row["box_from"] = ("" if not row["trained_on"] else "fixed" if aggregate is not None
+                           else "a validation scene" if row["trained_on"] == _REAL
+                           else "its validation split")
+    return TransferResult(rows, summary, models, _gap(rows, names, seeds), how)
 
 
 def draw_transfer(result: TransferResult, path: Path, *, title: str) -> Path:

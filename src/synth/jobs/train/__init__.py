@@ -10,10 +10,13 @@ that import PyTorch).
 from synth.jobs.train.loop import (
     AGGREGATES,
     CSV_COLUMNS,
+    GPU_CROPS,
     ROW_STEPS,
     TrainConfig,
     TrainInterrupted,
     TrainResult,
+    aggregate_bad3,
+    default_crops,
     train,
 )
 from synth.jobs.train.patches import CROP, CROPS, PatchBatches
@@ -24,6 +27,7 @@ __all__ = [
     "CROP",
     "CROPS",
     "CSV_COLUMNS",
+    "GPU_CROPS",
     "PatchBatches",
     "ROW_STEPS",
     "TrainConfig",
@@ -31,6 +35,8 @@ __all__ = [
     "TrainPair",
     "TrainResult",
     "TrainSource",
+    "aggregate_bad3",
+    "default_crops",
     "open_source",
     "open_sources",
     "train",

@@ -37,6 +37,7 @@ from matcher.io.atomic import claim_output
 from matcher.learned import (
     Architecture,
     PatchNet,
+    batch_pair_scores,
     hinge_loss,
     match_learned,
     model_bytes,
@@ -46,10 +47,10 @@ from matcher.learned import (
 from matcher.learned.model import LearnedModel
 from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
 from synth.jobs.train.patches import CROP, CROPS, Crop, PatchBatches
-from synth.jobs.train.sources import TrainSource, open_sources
+from synth.jobs.train.sources import TrainPair, TrainSource, open_sources
 
-__all__ = ["AGGREGATES", "CSV_COLUMNS", "ROW_STEPS", "TrainConfig", "TrainInterrupted",
-           "TrainResult", "train"]
+__all__ = ["AGGREGATES", "CSV_COLUMNS", "GPU_CROPS", "ROW_STEPS", "TrainConfig",
+           "TrainInterrupted", "TrainResult", "aggregate_bad3", "default_crops", "train"]
 
 #: Steps per CSV row (and per validation loss).
 ROW_STEPS = 100
@@ -59,6 +60,11 @@ VAL_BATCHES = 8
 AGGREGATES = (1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21)
 #: Validation pairs the aggregation is chosen on.
 SELECT_PAIRS = 4
+#: Crops per step by default on a GPU (the CPU's default is :data:`CROPS`): a step of 16 crops
+#: is bound by per-step overheads there, not by the GPU.
+GPU_CROPS = 256
+#: Right strips of a one-pass batch are padded to a multiple of this width (few distinct shapes).
+_PAD_WIDTH = 64
 CSV_COLUMNS = ("step_from", "step_to", "seconds", "train_loss", "val_loss", "patches",
                "patches_per_s", "lr")
 _CKPT_FORMAT = "stereoforge-train-checkpoint"
@@ -150,6 +156,40 @@ def _batch_loss(net: PatchNet, batch: list[Crop], device: torch.device
     return hinge_loss(s_pos, s_neg), int(s_pos.numel())
 
 
+def _one_pass_loss(net: PatchNet, batch: list[Crop], device: torch.device
+                   ) -> tuple[torch.Tensor | None, int]:
+    """:func:`_batch_loss` with the whole batch in two passes of the network (the lefts, then
+    the right strips padded to one width) and every patch's positive and negative sampled at
+    once on the device (:func:`matcher.learned.batch_pair_scores`): no per-crop step, which is
+    what bounds a GPU. Equal to :func:`_batch_loss` up to float rounding."""
+    if not batch:
+        return None, 0
+    r = net.arch.layers
+    widths = [c.right.shape[1] for c in batch]
+    width = -(-max(widths) // _PAD_WIDTH) * _PAD_WIDTH
+    rights = np.zeros((len(batch), 1, batch[0].right.shape[0], width), np.float32)
+    for i, crop in enumerate(batch):
+        rights[i, 0, :, :widths[i]] = crop.right
+    lefts = np.stack([c.left for c in batch])[:, None]
+    counts = [c.ys.size for c in batch]
+    index = np.repeat(np.arange(len(batch)), counts)
+    last = np.repeat(np.asarray(widths) - 2 * r - 1, counts)
+    pin = device.type == "cuda"
+    t = lambda a: (torch.from_numpy(np.ascontiguousarray(a)).pin_memory() if pin  # noqa: E731
+                   else torch.from_numpy(np.ascontiguousarray(a))).to(device, non_blocking=pin)
+    cat = np.concatenate
+    s_pos, s_neg = batch_pair_scores(
+        net(t(lefts)), net(t(rights)), t(index), t(cat([c.ys for c in batch])),
+        t(cat([c.xs for c in batch])), t(cat([c.x_pos for c in batch])),
+        t(cat([c.x_neg for c in batch])), t(last))
+    return hinge_loss(s_pos, s_neg), int(s_pos.numel())
+
+
+def default_crops(device: str) -> int:
+    """Crops per step by default: :data:`CROPS` on the CPU, :data:`GPU_CROPS` on a GPU."""
+    return CROPS if resolve_device(device).type == "cpu" else GPU_CROPS
+
+
 def _loader(batches: PatchBatches, start: int, stop: int, workers: int):
     from torch.utils.data import DataLoader
 
@@ -238,13 +278,14 @@ def _load_checkpoint(path: Path, cfg: TrainConfig, sources: list[TrainSource]) -
     return blob
 
 
-def _val_loss(net: PatchNet, batches: list[list[Crop]], device: torch.device) -> float | None:
+def _val_loss(net: PatchNet, batches: list[list[Crop]], device: torch.device,
+              step_loss: Callable = _batch_loss) -> float | None:
     if not batches:
         return None
     total, count = 0.0, 0
     with torch.no_grad():
         for batch in batches:
-            loss, n = _batch_loss(net, batch, device)
+            loss, n = step_loss(net, batch, device)
             if loss is not None:
                 total += float(loss) * n
                 count += n
@@ -256,28 +297,36 @@ def _search_range(disp: np.ndarray, visible: np.ndarray, width: int) -> int:
     return int(min(width - 1, max(4, 4 * math.ceil(math.ceil(1.1 * top + 1) / 4))))
 
 
-def _choose_aggregate(model: LearnedModel, sources: list[TrainSource], device: torch.device
-                      ) -> tuple[int, list]:
-    """The box side of :data:`AGGREGATES` with the smallest bad-3 (all pixels with ground truth,
-    no estimate = bad) over up to :data:`SELECT_PAIRS` validation pairs; 5 without any."""
+def aggregate_bad3(model: LearnedModel, pair: TrainPair, device: str | torch.device = "cpu"
+                   ) -> np.ndarray:
+    """bad-3 (%, all pixels with ground truth, no estimate = bad) of ``model`` on one pair with
+    each box side of :data:`AGGREGATES` (sub-pixel on, no left-right check), in that order."""
     from matcher.cost import aggregate_cost
     from matcher.learned import learned_cost
     from matcher.select import winner_takes_all
 
+    known = pair.disp > 0
+    cost = learned_cost(model, pair.left, pair.right, device=device,
+                        max_disparity=_search_range(pair.disp, known, pair.left.shape[1]))
+    bad = np.zeros(len(AGGREGATES))
+    for a, size in enumerate(AGGREGATES):
+        vol = cost if size == 1 else aggregate_cost(cost, size=size)
+        est = winner_takes_all(vol, subpixel=True)
+        err = np.abs(est - pair.disp)[known]
+        bad[a] = 100.0 * float(np.mean(~(err <= 3.0)))
+    return bad
+
+
+def _choose_aggregate(model: LearnedModel, sources: list[TrainSource], device: torch.device
+                      ) -> tuple[int, list]:
+    """The box side of :data:`AGGREGATES` with the smallest bad-3 (:func:`aggregate_bad3`) over
+    up to :data:`SELECT_PAIRS` validation pairs; 5 without any."""
     pairs = [(s, i) for s in sources for i in range(s.n_val)][:SELECT_PAIRS]
     if not pairs:
         return 5, []
     bad = np.zeros(len(AGGREGATES))
     for s, i in pairs:
-        p = s.load("val", i)
-        known = p.disp > 0
-        cost = learned_cost(model, p.left, p.right, device=device,
-                            max_disparity=_search_range(p.disp, known, p.left.shape[1]))
-        for a, size in enumerate(AGGREGATES):
-            vol = cost if size == 1 else aggregate_cost(cost, size=size)
-            est = winner_takes_all(vol, subpixel=True)
-            err = np.abs(est - p.disp)[known]
-            bad[a] += 100.0 * float(np.mean(~(err <= 3.0)))
+        bad += aggregate_bad3(model, s.load("val", i), device)
     bad /= len(pairs)
     return int(AGGREGATES[int(np.argmin(bad))]), [round(float(b), 3) for b in bad]
 
@@ -285,7 +334,8 @@ def _choose_aggregate(model: LearnedModel, sources: list[TrainSource], device: t
 def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
           overwrite: bool = False, workers: int = 2, threads: int | None = None,
           checkpoint_minutes: float = 2.0, log: Callable[[str], None] | None = None,
-          show_progress: bool = True, row_steps: int = ROW_STEPS) -> TrainResult:
+          show_progress: bool = True, row_steps: int = ROW_STEPS,
+          one_pass: bool | None = None) -> TrainResult:
     """Train the reference network (see the module docstring).
 
     Parameters
@@ -304,6 +354,10 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
         Wall time between checkpoints.
     row_steps : int
         Steps per CSV row and validation loss (:data:`ROW_STEPS`).
+    one_pass : bool, optional
+        A step's crops through the network in one pass and their patches sampled on the device
+        (:func:`_one_pass_loss`); default: on a GPU. The CPU's default, crop by crop, keeps its
+        results (and ``resume``'s equality) as they were.
 
     Raises
     ------
@@ -325,16 +379,18 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
         return _train_claimed(cfg, start_clock, say, device=device, resume=resume,
                               workers=workers, threads=threads,
                               checkpoint_minutes=checkpoint_minutes, show_progress=show_progress,
-                              row_steps=row_steps)
+                              row_steps=row_steps, one_pass=one_pass)
 
 
 def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], None], *,
                    device: str, resume: bool, workers: int, threads: int | None,
-                   checkpoint_minutes: float, show_progress: bool, row_steps: int
-                   ) -> TrainResult:
+                   checkpoint_minutes: float, show_progress: bool, row_steps: int,
+                   one_pass: bool | None) -> TrainResult:
     """:func:`train` once this process holds the output's lock."""
     model_path, csv_path, ckpt_path = _paths(cfg.out)
     dev = resolve_device(device)
+    one_pass = dev.type != "cpu" if one_pass is None else bool(one_pass)
+    step_loss = _one_pass_loss if one_pass else _batch_loss
     sources = open_sources(cfg.sources, val_fraction=cfg.val_fraction)
     blob = _load_checkpoint(ckpt_path, cfg, sources) if resume else None
     if blob is not None and blob.get("finished") and model_path.is_file():
@@ -360,7 +416,8 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
     n_val = sum(s.n_val for s in sources)
     say(f"training on {n_train} pairs ({', '.join(s.name for s in sources)}), validating on "
         f"{n_val}; {arch.channels} maps x {arch.layers} layers ({arch.patch}x{arch.patch} "
-        f"patches), {cfg.crops} crops of {cfg.crop}x{cfg.crop} per step, device {dev}")
+        f"patches), {cfg.crops} crops of {cfg.crop}x{cfg.crop} per step"
+        f"{' in one pass' if one_pass else ''}, device {dev}")
 
     total = cfg.steps if cfg.steps is not None else 10**12
     budget = None if cfg.minutes is None else 60.0 * cfg.minutes
@@ -406,7 +463,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
                 group["lr"] = lr
             t0 = time.monotonic()
             batch = next(loader)
-            loss, n = _batch_loss(net, batch, dev)
+            loss, n = step_loss(net, batch, dev)
             if loss is not None:
                 opt.zero_grad(set_to_none=True)
                 loss.backward()
@@ -420,7 +477,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
             state.row_seconds += dt
             state.seconds = run_seconds0 + (time.monotonic() - run_start)
             if state.step % row_steps == 0 or state.step == total:
-                v = _val_loss(net, val_batches, dev)
+                v = _val_loss(net, val_batches, dev, step_loss)
                 row = {"step_from": state.step - (state.step - 1) % row_steps,
                        "step_to": state.step, "seconds": round(state.seconds, 2),
                        "train_loss": round(state.row_loss / max(state.row_count, 1), 6),
@@ -456,7 +513,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
             signal.signal(sig, old)
 
     if state.row_count:  # a last partial row
-        v = _val_loss(net, val_batches, dev)
+        v = _val_loss(net, val_batches, dev, step_loss)
         state.rows.append({"step_from": state.step - (state.step - 1) % row_steps,
                            "step_to": state.step, "seconds": round(state.seconds, 2),
                            "train_loss": round(state.row_loss / state.row_count, 6),
@@ -476,6 +533,8 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
                      "patches": state.patches, "seconds": round(state.seconds, 1),
                      "seed": cfg.seed, "minutes": cfg.minutes, "max_steps": cfg.steps,
                      "crops": cfg.crops, "crop": cfg.crop, "lr": cfg.lr, "device": str(dev),
+                     "batch": {"crops": cfg.crops, "crop": cfg.crop, "workers": workers,
+                               "step": "one pass" if one_pass else "crop by crop"},
                      "torch": str(torch.__version__), "threads": torch.get_num_threads(),
                      "train_loss": last.get("train_loss"), "val_loss": last.get("val_loss")},
     }
