@@ -369,8 +369,17 @@ class Passes:
     # ------------------------------------------------------------------ passes
     @staticmethod
     def common_state() -> None:
+        """The fixed-function state every pass sets, leaving none of it to the driver's defaults.
+
+        Dithering is off: GL enables it by default and lets an implementation dither a colour
+        written into a buffer of fewer bits (our RGBA8 colour target) as it likes (llvmpipe does
+        not dither, so its images are unchanged; another driver might). ``GL_FRAMEBUFFER_SRGB``
+        is off (its default): colours are written as the shader computes them, never encoded.
+        """
         from OpenGL import GL
 
+        GL.glDisable(GL.GL_DITHER)
+        GL.glDisable(GL.GL_FRAMEBUFFER_SRGB)
         GL.glDisable(GL.GL_BLEND)
         GL.glCullFace(GL.GL_BACK)
         GL.glFrontFace(GL.GL_CCW)
