@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.pair import occlusion_mask
+from synth.camera.rig import StereoRig
+from synth.pair import ground_truth_from_depth, occlusion_mask
 from synth.appearance.photometric import PhotometricParams, apply_photometric, gaussian_noise
 
 __all__ = ["warm_sample_kernels"]
@@ -24,9 +25,16 @@ def warm_sample_kernels() -> None:
     samples' dtypes: the occlusion mask, the noise lookup and the edge density's Canny."""
     from synth.appearance.texture_control import edge_density
 
-    occlusion_mask(np.zeros((1, 2)), np.zeros((1, 2)))
+    _warm_ground_truth()
     _warm_noise()
     edge_density(np.zeros((16, 16, 3), np.uint8))
+
+
+def _warm_ground_truth() -> None:
+    """The occlusion mask alone and with the disparities of a pair's depths."""
+    occlusion_mask(np.zeros((1, 2)), np.zeros((1, 2)))
+    z = np.ones((1, 2), np.float32)
+    ground_truth_from_depth(StereoRig.default(2, 1), z, z)
 
 
 def _warm_noise() -> None:
@@ -37,5 +45,5 @@ def _warm_noise() -> None:
         apply_photometric(img, img, PhotometricParams(noise_sigma=1.0, blur_sigma=blur), rng=0)
 
 
-occlusion_mask(np.zeros((1, 2)), np.zeros((1, 2)))
+_warm_ground_truth()
 _warm_noise()
