@@ -1,4 +1,5 @@
-"""The fused noise pass of ``apply_photometric`` against the OpenCV pipeline it replaced.
+"""The fused noise pass and the JPEG round trip of ``apply_photometric`` against the OpenCV
+pipelines they replaced.
 
 Before the fused pass a noisy image was ``cv2.addWeighted(x, gain, gaussian_noise(...), 1, bias,
 dtype=CV_8U)`` with ``x`` the image (uint8), its gamma table lookup (``cv2.LUT``, float32) or its
@@ -14,6 +15,7 @@ import pytest
 from synth.appearance.photometric import (
     PhotometricParams,
     _gamma,
+    _jpeg,
     _noisy_uint8,
     apply_photometric,
     gaussian_noise,
@@ -66,3 +68,20 @@ def test_noisy_pairs_keep_their_bytes_under_every_combination_of_models():
                         cv2.addWeighted(xs[1], 1.07, noise[1], 1.0, -3.5, dtype=cv2.CV_8U)]
             np.testing.assert_array_equal(out.left, expected[0])
             np.testing.assert_array_equal(out.right, expected[1])
+
+
+@pytest.mark.parametrize("quality", [1, 75, 90, 95, 100])
+def test_jpeg_round_trip_equals_opencv_of_the_reversed_channels(quality):
+    """Channels swapped by cvtColor: the bytes of the former numpy channel reversal."""
+    rng = np.random.default_rng(quality)
+    for shape in ((37, 53, 3), (37, 53), (8, 9, 3)):
+        img = cv2.GaussianBlur(rng.integers(0, 256, shape, dtype=np.uint8), (5, 5), 1.5)
+        for view in (img, img[:, ::-1]):  # contiguous and strided
+            colour = view.ndim == 3
+            ok, buf = cv2.imencode(".jpg", view[..., ::-1] if colour else view,
+                                   [cv2.IMWRITE_JPEG_QUALITY, quality])
+            back = cv2.imdecode(buf, cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
+            expected = back[..., ::-1] if colour else back
+            got = _jpeg(view, quality)
+            assert got.flags.c_contiguous and got.dtype == np.uint8
+            np.testing.assert_array_equal(got, expected)

@@ -247,13 +247,16 @@ def _blur(img: np.ndarray, sigma: float) -> np.ndarray:
 
 
 def _jpeg(img: np.ndarray, quality: int) -> np.ndarray:
+    """The JPEG round trip of an RGB or grey image (OpenCV's codec, which wants BGR: the
+    channels are swapped by ``cvtColor``, ~3x faster than numpy's copies of reversed views)."""
     colour = img.ndim == 3
-    ok, buf = cv2.imencode(".jpg", img[..., ::-1] if colour else img,
+    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(img, cv2.COLOR_RGB2BGR) if colour else img,
                            [cv2.IMWRITE_JPEG_QUALITY, quality])
     if not ok:  # pragma: no cover - OpenCV always encodes uint8 images
         raise RuntimeError("OpenCV could not encode the JPEG round trip")
-    out = cv2.imdecode(buf, cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
-    return np.ascontiguousarray(out[..., ::-1] if colour else out)
+    if not colour:
+        return cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE)
+    return cv2.cvtColor(cv2.imdecode(buf, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
 
 
 def _gamma(img: np.ndarray, gamma: float) -> np.ndarray:
