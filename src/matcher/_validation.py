@@ -61,9 +61,12 @@ def rgb_to_grey(image: np.ndarray) -> np.ndarray:
     Input is trusted (no validation): use :func:`check_image` at a public boundary.
     """
     w = np.asarray(GREY_WEIGHTS, dtype=np.float64)
-    if image.dtype == np.uint8:
-        grey = image.astype(np.float64) @ w
-        return np.clip(np.floor(grey + 0.5), 0, 255).astype(np.uint8)
+    if image.dtype == np.uint8:  # float64 weighted sum, rounded half up (see the kernel)
+        from matcher._kernels.grey import grey_uint8_kernel
+
+        out = np.empty(image.shape[:2], np.uint8)
+        grey_uint8_kernel(image, out)
+        return out
     if image.dtype.kind == "f":
         return (image @ w.astype(image.dtype)).astype(image.dtype, copy=False)
     return image.astype(np.float64) @ w

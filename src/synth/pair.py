@@ -30,6 +30,7 @@ __all__ = [
     "render_pair",
     "expose",
     "occlusion_mask",
+    "ground_truth_from_depth",
     "MASK_VISIBLE",
     "MASK_OCCLUDED",
     "MASK_INVALID",
@@ -149,6 +150,27 @@ def occlusion_mask(
     return mask
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _mask_code(d: float, j: int, dr_row: np.ndarray, lerp_tol: float,
+               edge_tol: float) -> int:  # pragma: no cover - compiled
+    """The code of left pixel ``j`` of disparity ``d`` against its row of right disparities."""
+    if not np.isfinite(d):
+        return MASK_INVALID
+    xr = j - d
+    if not xr >= -0.5:  # outside the right image (d >= 0: never beyond its right edge)
+        return MASK_OCCLUDED
+    w = dr_row.shape[0]
+    x0 = np.floor(xr)
+    t = xr - x0
+    i0 = int(x0)
+    a = dr_row[max(i0, 0)]
+    b = dr_row[min(i0 + 1, w - 1)]
+    # NaN (inf - inf where the right view sees nothing) fails every comparison
+    ok = (abs(d - (a + t * (b - a))) <= lerp_tol or abs(d - a) <= edge_tol
+          or (t > 0 and abs(d - b) <= edge_tol))  # b brackets xr only if t > 0
+    return MASK_VISIBLE if ok else MASK_OCCLUDED
+
+
 @njit(cache=True, nogil=True)
 def _mask_kernel(dl: np.ndarray, dr: np.ndarray, lerp_tol: float, edge_tol: float,
                  mask: np.ndarray) -> None:  # pragma: no cover - compiled
@@ -156,23 +178,68 @@ def _mask_kernel(dl: np.ndarray, dr: np.ndarray, lerp_tol: float, edge_tol: floa
     h, w = dl.shape
     for i in range(h):
         for j in range(w):
-            d = dl[i, j]
-            if not np.isfinite(d):
-                mask[i, j] = MASK_INVALID
-                continue
-            xr = j - d
-            if not xr >= -0.5:  # outside the right image (d >= 0: never beyond its right edge)
-                mask[i, j] = MASK_OCCLUDED
-                continue
-            x0 = np.floor(xr)
-            t = xr - x0
-            i0 = int(x0)
-            a = dr[i, max(i0, 0)]
-            b = dr[i, min(i0 + 1, w - 1)]
-            # NaN (inf - inf where the right view sees nothing) fails every comparison
-            ok = (abs(d - (a + t * (b - a))) <= lerp_tol or abs(d - a) <= edge_tol
-                  or (t > 0 and abs(d - b) <= edge_tol))  # b brackets xr only if t > 0
-            mask[i, j] = MASK_VISIBLE if ok else MASK_OCCLUDED
+            mask[i, j] = _mask_code(dl[i, j], j, dr[i], lerp_tol, edge_tol)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _disparity(fb: float, z: np.float32) -> float:  # pragma: no cover - compiled
+    """:meth:`StereoRig.disparity_from_depth` of one depth: ``fb / z`` in float64, ``inf``
+    where that is not > 0 (no surface: ``z = inf``; NaN, ``z <= 0``)."""
+    d = fb / np.float64(z)
+    return d if d > 0 else np.inf
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _ground_truth_kernel(zl: np.ndarray, zr: np.ndarray, fb: float, lerp_tol: float,
+                         edge_tol: float, disp_left: np.ndarray, disp_right: np.ndarray,
+                         mask: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Both views' float64 disparities from their depths (stored as float32) and the left
+    view's :func:`occlusion_mask` of them, in one pass over the rows."""
+    h, w = zl.shape
+    dr_row = np.empty(w, np.float64)
+    for i in range(h):
+        for j in range(w):
+            dr_row[j] = _disparity(fb, zr[i, j])
+            disp_right[i, j] = np.float32(dr_row[j])
+        for j in range(w):
+            d = _disparity(fb, zl[i, j])
+            disp_left[i, j] = np.float32(d)
+            mask[i, j] = _mask_code(d, j, dr_row, lerp_tol, edge_tol)
+
+
+def ground_truth_from_depth(rig: StereoRig, depth_left: np.ndarray, depth_right: np.ndarray
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ground truth of a pair from its two depth maps, in one pass.
+
+    Parameters
+    ----------
+    rig : StereoRig
+    depth_left, depth_right : (H, W) float32 array
+        Camera-space ``Z`` of each view (``inf``: no surface).
+
+    Returns
+    -------
+    disp_left, disp_right : (H, W) float32 array
+        ``rig.disparity_from_depth`` of each map (computed in float64), stored as float32.
+    mask : (H, W) uint8 array
+        :func:`occlusion_mask` of the float64 disparities.
+
+    Examples
+    --------
+    >>> rig = StereoRig.default(4, 1, baseline=0.1)  # fx = 3.75: fx * baseline = 0.375
+    >>> z = np.array([[np.inf, 0.375, 0.375, 0.375]], np.float32)
+    >>> dl, dr, mask = ground_truth_from_depth(rig, z, z)
+    >>> dl.tolist(), mask.tolist()
+    ([[inf, 1.0, 1.0, 1.0]], [[0, 128, 255, 255]])
+    """
+    shape = depth_left.shape
+    disp_left, disp_right = np.empty(shape, np.float32), np.empty(shape, np.float32)
+    mask = np.empty(shape, np.uint8)
+    _ground_truth_kernel(np.ascontiguousarray(depth_left, dtype=np.float32),
+                         np.ascontiguousarray(depth_right, dtype=np.float32),
+                         float(rig.fx * rig.baseline), float(LERP_TOL), float(EDGE_TOL),
+                         disp_left, disp_right, mask)
+    return disp_left, disp_right, mask
 
 
 @functools.cache
@@ -280,9 +347,7 @@ def render_pair(
     relit = None
     if lighting is not None:
         relit = _readonly(renderer.render_view(lighting, ideal, eye="right").color)
-    d_left = rig.disparity_from_depth(left.depth)
-    d_right = rig.disparity_from_depth(right.depth)
-    mask = occlusion_mask(d_left, d_right)
+    d_left, d_right, mask = ground_truth_from_depth(rig, left.depth, right.depth)
     meta = {
         **scene_meta,
         "backend": renderer.backend,
@@ -301,8 +366,8 @@ def render_pair(
     return StereoPair(
         left=_readonly(left.color if real is None else real.left),
         right=_readonly(right.color if real is None else real.right),
-        disp_left=_readonly(d_left.astype(np.float32)),
-        disp_right=_readonly(d_right.astype(np.float32)),
+        disp_left=_readonly(d_left),
+        disp_right=_readonly(d_right),
         depth_left=_readonly(left.depth),
         mask_left=_readonly(mask),
         rig=rig,

@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from matcher.io import read_pfm, write_pfm
+from matcher.io import encode_png, read_image, read_pfm, write_pfm
 from synth.jobs.golden_compare import compare_render
 from synth.jobs.golden import (
     GOLDEN_CASES,
@@ -153,6 +153,34 @@ def test_fresh_render_matches_stored_golden(renderer):
     report = golden_check(GOLDEN, matchers=False)
     assert report.failures == (), report.summary()
     assert [r.scene for r in report.render] == [s for s, _ in GOLDEN_SCENES]
+
+
+@pytest.mark.gl
+def test_the_check_names_the_references_renderer_and_its_own(renderer, tmp_path):
+    root = _one_scene_copy(tmp_path, "fronto_plane")
+    manifest = json.loads((root / "manifest.json").read_text())
+    manifest["gl"] = {"backend": renderer.backend, "GL_RENDERER": renderer.gl_renderer,
+                      "GL_VERSION": renderer.gl_version}
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    same = golden_check(root, matchers=False)
+    assert same.ok and same.same_renderer
+    assert same.renderer_gl == manifest["gl"]
+    assert f"renderer: references by {renderer.gl_renderer}" in same.summary()
+    assert "rendered here by the same" in same.summary()
+    # references from another driver, and one image that differs: the failure names both
+    manifest["gl"] = {"backend": "egl", "GL_RENDERER": "NVIDIA H200/PCIe/SSE2",
+                      "GL_VERSION": "4.6.0 NVIDIA 570.86.15"}
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    im0 = root / "fronto_plane" / "im0.png"
+    img = read_image(im0)
+    im0.write_bytes(encode_png(np.ascontiguousarray(255 - img)))
+    other = golden_check(root, matchers=False)
+    assert not other.same_renderer
+    assert len(other.failures) == 1 and other.failures[0].startswith("fronto_plane/im0.png")
+    assert f"rendered by {renderer.gl_renderer}" in other.failures[0]
+    assert "references by NVIDIA H200/PCIe/SSE2, 4.6.0 NVIDIA 570.86.15 (egl)" in \
+        other.failures[0]
+    assert f"rendered here by {renderer.gl_renderer}" in other.summary()
 
 
 @pytest.mark.gl

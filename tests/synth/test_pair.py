@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import scenes
 
-from synth.pair import MASK_OCCLUDED, MASK_VISIBLE, StereoPair, occlusion_mask, render_pair
+from synth.pair import (MASK_OCCLUDED, MASK_VISIBLE, StereoPair, ground_truth_from_depth,
+                        occlusion_mask, render_pair)
 from synth.render.renderer import Renderer
 from synth.camera.rig import StereoRig
 
@@ -165,3 +166,28 @@ def test_sgbm_agrees_with_ground_truth(renderer: Renderer) -> None:
     err = raw[valid] / 16.0 - pair.disp_left[valid]
     assert abs(np.median(err)) <= 0.1
     assert (np.abs(err) > 1.0).mean() <= 0.05
+
+
+def test_ground_truth_from_depth_is_the_disparities_then_the_mask_of_them():
+    """One pass = ``rig.disparity_from_depth`` of each view (float64), ``occlusion_mask`` of
+    those, float32 disparities: on smooth and jumping depths and every special value."""
+    rig = StereoRig.default(97, 31, baseline=0.12)
+    rng = np.random.default_rng(5)
+    x = np.arange(97)
+    base = 1.5 + 0.01 * x[None, :] + 0.05 * np.arange(31)[:, None]  # a slanted plane
+    seen: set[int] = set()
+    for trial in range(20):
+        zl = base + np.where(rng.random((31, 97)) < 0.2, rng.uniform(0, 3, (31, 97)), 0.0)
+        zr = np.roll(zl, -int(rng.integers(0, 9)), axis=1)
+        zl, zr = zl.astype(np.float32), zr.astype(np.float32)
+        for z in (zl, zr):  # no surface, and depths no renderer gives (all mean "no truth")
+            z[rng.random(z.shape) < 0.05] = np.inf
+            if trial % 2:
+                z[rng.random(z.shape) < 0.02] = rng.choice([0.0, -0.0, -1.0, np.nan])
+        dl64, dr64 = rig.disparity_from_depth(zl), rig.disparity_from_depth(zr)
+        dl, dr, mask = ground_truth_from_depth(rig, zl, zr)
+        np.testing.assert_array_equal(dl, dl64.astype(np.float32))
+        np.testing.assert_array_equal(dr, dr64.astype(np.float32))
+        np.testing.assert_array_equal(mask, occlusion_mask(dl64, dr64))
+        seen |= set(np.unique(mask).tolist())
+    assert seen == {0, 128, 255}

@@ -115,6 +115,16 @@ def _quad(z: float = 2.0, half: float = 2.0) -> trimesh.Trimesh:
     return trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], visual=visual, process=False)
 
 
+def test_a_pil_rgb_texture_comes_out_as_its_rgb_and_a_fourth_byte() -> None:
+    from synth.render.meshes import texture_array
+
+    rgb = np.random.default_rng(0).integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    out = texture_array(Image.fromarray(rgb))
+    assert out.shape == (5, 7, 4) and out.dtype == np.uint8 and out.flags.c_contiguous
+    np.testing.assert_array_equal(out[..., :3], rgb)
+    np.testing.assert_array_equal(texture_array(rgb), rgb)  # arrays: as they are
+
+
 @pytest.mark.gl
 def test_texture_sources_give_the_same_pixels(renderer: Renderer) -> None:
     """RGB and RGBA PIL images (alpha ignored) and grey images are one texture."""

@@ -25,7 +25,8 @@ from matcher._kernels.cthw import (
     key_shift,
     path_mode_up_kernel,
 )
-from matcher._kernels.intrinsics import fetch_add, popcount64
+from matcher._kernels.grey import grey_uint8_kernel
+from matcher._kernels.intrinsics import fetch_add, fma, popcount64
 from matcher._kernels.learned import similarity_cost_kernel
 from matcher._kernels.select import wta_kernel
 
@@ -43,6 +44,8 @@ __all__ = [
     "disparity_range",
     "edge_integral",
     "fetch_add",
+    "fma",
+    "grey_uint8_kernel",
     "haar_padded_kernel",
     "key_shift",
     "path_mode_up_kernel",

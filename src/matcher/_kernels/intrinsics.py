@@ -1,4 +1,5 @@
-"""LLVM intrinsics the kernels share: a 64-bit popcount and an atomic fetch-and-add.
+"""LLVM intrinsics the kernels share: a 64-bit popcount, an atomic fetch-and-add and a fused
+multiply-add.
 
 Scheduling with :func:`fetch_add`: the parallel kernels run ``prange`` over the worker threads
 and let each worker take rows (or strips) from a shared atomic counter, so a worker that another
@@ -7,11 +8,12 @@ process keeps off its core does not hold up a statically assigned half of the ro
 
 from __future__ import annotations
 
+from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["fetch_add", "popcount64"]
+__all__ = ["fetch_add", "fma", "popcount64"]
 
 
 @intrinsic
@@ -37,5 +39,19 @@ def fetch_add(typingctx, counter, increment):  # pragma: no cover - compiled
         ptr = cgutils.get_item_pointer(context, builder, signature.args[0], ary,
                                        [context.get_constant(types.intp, 0)])
         return builder.atomic_rmw("add", ptr, args[1], "monotonic")
+
+    return sig, codegen
+
+
+@intrinsic
+def fma(typingctx, a, b, c):  # pragma: no cover - compiled
+    """``a * b + c`` on float64 with one rounding (LLVM ``fma``: the instruction where the CPU
+    has one, a correctly rounded library call where not, so the same bits everywhere)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        t = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [t], ir.FunctionType(t, [t, t, t]))
+        return builder.call(fn, args)
 
     return sig, codegen

@@ -21,6 +21,11 @@ the *stored* images. :func:`golden_check` verifies two things separately:
      image over all pixels and channels (multisample resolve and mipmap filtering may differ
      between Mesa versions; the percentile bounds the edges, the mean the rest).
 
+   The report names the GL renderer the references come from (the manifest's ``gl``) and the
+   one it rendered with; when they differ, each render failure names both, so a difference is
+   always reported for a pair of renderers (llvmpipe's references checked on another driver
+   measure that driver's freedoms, not a regression).
+
 :func:`golden_update` regenerates everything (deterministically: the same versions give the
 same bytes) and reports what changed. Layout::
 
@@ -42,7 +47,7 @@ import json
 import math
 import platform
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -105,6 +110,11 @@ class CheckReport:
         ``(scene, method, window)`` outputs compared exactly.
     render : tuple of RenderDiff
         One per re-rendered scene (empty with ``render=False``).
+    reference_gl : dict
+        The GL strings (``backend``, ``GL_RENDERER``, ``GL_VERSION``) the stored pairs were
+        rendered with (the manifest's ``gl``; empty if it has none).
+    renderer_gl : dict
+        Those of this check's renders (empty with ``render=False``).
     """
 
     root: Path
@@ -112,6 +122,14 @@ class CheckReport:
     notes: tuple[str, ...]
     matcher_cases: int
     render: tuple[RenderDiff, ...]
+    reference_gl: dict = field(default_factory=dict)
+    renderer_gl: dict = field(default_factory=dict)
+
+    @property
+    def same_renderer(self) -> bool:
+        """True when this check rendered with the references' GL renderer and version."""
+        return all(self.reference_gl.get(k) == self.renderer_gl.get(k)
+                   for k in ("GL_RENDERER", "GL_VERSION"))
 
     @property
     def ok(self) -> bool:
@@ -124,6 +142,9 @@ class CheckReport:
                  f"({self.matcher_cases} matcher outputs, {len(self.render)} scenes re-rendered)"]
         lines += [f"  FAIL {f}" for f in self.failures]
         lines += [f"  note {n}" for n in self.notes]
+        if self.render:
+            lines.append(f"  renderer: references by {_gl_name(self.reference_gl)}; rendered here "
+                         f"by {'the same' if self.same_renderer else _gl_name(self.renderer_gl)}")
         lines += [f"  render {r.scene}: mean|dI| {r.image_mean_abs:.3f}, p99 {r.image_p99_abs:.1f}"
                   f", max {r.image_max_abs:.0f}; max|dd| {r.disparity_max_abs:.2e} px; "
                   f"boundary px {r.boundary_pixels}; mask changed {r.mask_changed}"
@@ -152,6 +173,14 @@ class GoldenChange:
 # --------------------------------------------------------------------------- helpers
 def _json_bytes(obj: Any) -> bytes:
     return (json.dumps(obj, indent=2, sort_keys=True, allow_nan=False) + "\n").encode()
+
+
+def _gl_name(gl: dict) -> str:
+    """``GL_RENDERER, GL_VERSION (backend)`` of a manifest's or a renderer's GL strings."""
+    if not gl:
+        return "an unrecorded renderer"
+    return (f"{gl.get('GL_RENDERER', '?')}, {gl.get('GL_VERSION', '?')} "
+            f"({gl.get('backend', '?')})")
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -301,20 +330,34 @@ def _check_matchers(root: Path, manifest: dict, failures: list[str]) -> int:
 
 
 def _check_render(root: Path, manifest: dict, backend: str, failures: list[str]
-                  ) -> list[RenderDiff]:
+                  ) -> tuple[list[RenderDiff], dict]:
+    """Each scene rendered afresh against its stored pair, and the GL strings of the renderer.
+
+    A renderer other than the references' (another driver or Mesa version: the GL
+    specification leaves rasterisation, multisample resolve and mipmap generation partly to the
+    implementation) is named in each render failure, so a report says between which two
+    renderers a difference was measured."""
     from scenes import get_preset
     from synth.pair import render_pair
     from synth.render.renderer import Renderer
 
     rig = StereoRig.from_dict(manifest["rig"])
     out = []
+    mine: list[str] = []
     with Renderer(rig.width, rig.height, backend=backend) as renderer:
+        gl = {"backend": renderer.backend, "GL_RENDERER": renderer.gl_renderer,
+              "GL_VERSION": renderer.gl_version}
         for scene in manifest["scenes"]:
             stored = load_middlebury_2014(root / scene["name"])
             fresh = render_pair(get_preset(scene["preset"], seed=scene["seed"]), rig,
                                 renderer=renderer)
-            out.append(compare_render(scene["name"], fresh, stored, failures))
-    return out
+            out.append(compare_render(scene["name"], fresh, stored, mine))
+    reference = manifest.get("gl") if isinstance(manifest.get("gl"), dict) else {}
+    if any(reference.get(k) != gl[k] for k in ("GL_RENDERER", "GL_VERSION")):
+        mine = [f"{f} [rendered by {_gl_name(gl)}; references by {_gl_name(reference)}]"
+                for f in mine]
+    failures += mine
+    return out, gl
 
 
 def golden_check(root: str | Path = "golden", *, backend: str = "auto", matchers: bool = True,
@@ -361,8 +404,9 @@ def golden_check(root: str | Path = "golden", *, backend: str = "auto", matchers
         if stored != version:
             notes.append(f"{dist} {version} (manifest: {stored})")
     n = _check_matchers(root, manifest, failures) if matchers else 0
-    diffs = _check_render(root, manifest, backend, failures) if render else []
-    return CheckReport(root, tuple(failures), tuple(notes), n, tuple(diffs))
+    diffs, gl = _check_render(root, manifest, backend, failures) if render else ([], {})
+    reference = manifest.get("gl") if isinstance(manifest.get("gl"), dict) else {}
+    return CheckReport(root, tuple(failures), tuple(notes), n, tuple(diffs), dict(reference), gl)
 
 
 # --------------------------------------------------------------------------- update

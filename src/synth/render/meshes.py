@@ -119,7 +119,7 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
         image = getattr(mat, "image", None) or getattr(mat, "baseColorTexture", None)
         if visual.uv is not None and image is not None:
             uv = np.asarray(visual.uv, dtype=np.float64)
-            image = texture_array(image)  # RGB(A) as is: Mesa converts to RGBA on upload
+            image = texture_array(image)  # RGBA (RGBX) from PIL, arrays RGB(A) as they are
         else:
             image = None
             main = np.asarray(getattr(mat, "main_color", [255, 255, 255, 255]), dtype=np.float64)
@@ -149,10 +149,18 @@ def prepare_mesh(m: trimesh.Trimesh, name: str, to_light: np.ndarray, intensity:
 
 
 def texture_array(image: Any) -> np.ndarray:
-    """A texture (PIL image or array) as a C-contiguous (h, w, 3 or 4) uint8 array."""
+    """A texture (PIL image or array) as a C-contiguous (h, w, 3 or 4) uint8 array.
+
+    A PIL RGB image comes out as (h, w, 4), its RGB and the fourth byte PIL keeps beside them
+    (RGBX, 255): the copy out of PIL costs what the 3-channel one does, and the upload then
+    skips Mesa's RGB -> RGBA conversion (the texture is RGBA8 either way; shaders read ``.rgb``).
+    """
     if hasattr(image, "mode") and hasattr(image, "convert"):  # a PIL image
         if image.mode not in ("RGB", "RGBA"):
             image = image.convert("RGB")
+        if image.mode == "RGB":
+            w, h = image.size
+            return np.frombuffer(image.tobytes("raw", "RGBX"), np.uint8).reshape(h, w, 4)
     arr = np.asarray(image)
     if arr.ndim == 2:
         arr = np.repeat(arr[:, :, None], 3, axis=2)

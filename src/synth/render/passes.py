@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import cv2
 import numpy as np
 
 from stereoforge.errors import ParameterError
@@ -369,8 +370,17 @@ class Passes:
     # ------------------------------------------------------------------ passes
     @staticmethod
     def common_state() -> None:
+        """The fixed-function state every pass sets, leaving none of it to the driver's defaults.
+
+        Dithering is off: GL enables it by default and lets an implementation dither a colour
+        written into a buffer of fewer bits (our RGBA8 colour target) as it likes (llvmpipe does
+        not dither, so its images are unchanged; another driver might). ``GL_FRAMEBUFFER_SRGB``
+        is off (its default): colours are written as the shader computes them, never encoded.
+        """
         from OpenGL import GL
 
+        GL.glDisable(GL.GL_DITHER)
+        GL.glDisable(GL.GL_FRAMEBUFFER_SRGB)
         GL.glDisable(GL.GL_BLEND)
         GL.glCullFace(GL.GL_BACK)
         GL.glFrontFace(GL.GL_CCW)
@@ -421,11 +431,12 @@ class Passes:
         GL.glBlitFramebuffer(0, 0, self.w, self.h, 0, 0, self.w, self.h,
                              GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self.fb_resolve[0])
-        out = np.empty((self.h, self.w, 3), dtype=np.uint8)
+        # read as stored (RGBA: llvmpipe's RGB read-back converts pixel by pixel, ~4x slower)
+        out = np.empty((self.h, self.w, 4), dtype=np.uint8)
         GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
-        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGB, GL.GL_UNSIGNED_BYTE, out.ctypes.data)
+        GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, out.ctypes.data)
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        return out[::-1].copy()  # GL rows run bottom-up
+        return cv2.cvtColor(out, cv2.COLOR_RGBA2RGB)[::-1].copy()  # GL rows run bottom-up
 
     def highlight(self, up: GLScene, pv: np.ndarray, eye: Sequence[float]) -> np.ndarray:
         """(H, W) float32 rise of the displayed value (grey levels, the largest channel) that the
