@@ -13,6 +13,7 @@ from synth.jobs.train.loop import (
     ROW_STEPS,
     TrainConfig,
     TrainInterrupted,
+    TrainOutOfMemory,
     TrainResult,
     train,
 )
@@ -28,6 +29,7 @@ __all__ = [
     "ROW_STEPS",
     "TrainConfig",
     "TrainInterrupted",
+    "TrainOutOfMemory",
     "TrainPair",
     "TrainResult",
     "TrainSource",
