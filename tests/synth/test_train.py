@@ -451,3 +451,21 @@ def test_memory_that_cannot_be_had_is_an_environment_error(data, tmp_path):
                     r"1024 maps x 4 layers on a batch of 512 crops of 80x80 pixels", lines[-1]), \
         lines[-1]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("option, words", [
+    ({"configs": []}, "--configs: expected dataset configs separated by commas"),
+    ({"configs": ["", "", ""]}, "got ',,'"),
+    ({"configs": ["flying", "flying"]}, "--configs: flying comes twice"),
+    ({"device": "foo"}, "--device: expected auto, cpu, cuda or cuda:N, got 'foo'"),
+    ({"device": _no_gpu_device()}, "--device '"),
+    ({"minutes": float("inf")}, "--minutes: expected a finite number"),
+    ({"seeds": []}, "--seeds: give at least one seed"),
+])
+def test_bench_transfer_refuses_bad_arguments_before_rendering(tmp_path, option, words):
+    from synth.jobs.bench.transfer import bench_transfer
+
+    with pytest.raises(ValueError, match=re.escape(words)):
+        bench_transfer(**{"configs": ["flying"], "count": 2, "minutes": 0.1, "out": tmp_path,
+                          **option})
+    assert list(tmp_path.iterdir()) == []

@@ -113,6 +113,37 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
     return {"model": str(model), "wall_s": round(wall, 1), "reused": False}
 
 
+def _config_name(config: str) -> str:
+    return Path(config).stem if os.sep in str(config) or str(config).endswith(".toml") \
+        else str(config)
+
+
+def _check_arguments(configs: Sequence[str], *, count: int, minutes: float, seeds: Sequence[int],
+                     workers: int, device: str) -> str:
+    """Refuse bad arguments before any work; the device name."""
+    from matcher.learned.device import check_device
+    from stereoforge.errors import ParameterError
+    from stereoforge.validation import check_int, check_real
+    from synth.jobs.train.checks import MAX_MINUTES
+
+    names = [_config_name(c) for c in configs]
+    if not names or not all(str(c).strip() for c in configs):
+        raise ParameterError(f"--configs: expected dataset configs separated by commas (example "
+                             f"names or TOML paths), got {','.join(map(str, configs))!r}")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ParameterError(f"--configs: {', '.join(twice)} comes twice (one folder pairs/<name> "
+                             "per config); give each config once")
+    check_int(count, "--count", lo=1, hi=10**6)
+    check_real(minutes, "--minutes", lo=0, lo_open=True, hi=MAX_MINUTES)
+    if not seeds:
+        raise ParameterError("--seeds: give at least one seed")
+    for seed in seeds:
+        check_int(seed, "--seeds", lo=0, hi=2**63 - 1)
+    check_int(workers, "--workers", lo=1, hi=256)
+    return check_device(device, "--device")
+
+
 def _summary(rows: list[dict], methods: list[str]) -> list[dict]:
     out = []
     for method in methods:
@@ -145,13 +176,18 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                    minutes: float = 10.0, seeds: Sequence[int] = (0,), data: Path | None = None,
                    out: Path, workers: int = 2, device: str = "auto", ceiling: bool = True,
                    log: Callable[[str], None] | None = None) -> TransferResult:
-    """Train on each config (and the real scenes, leave-one-out), score on the real scenes."""
+    """Train on each config (and the real scenes, leave-one-out), score on the real scenes.
+
+    Every argument is checked before anything is rendered or trained (:class:`ParameterError`).
+    """
     from matcher.adapters import resolve_matcher
     from synth.dataset import load_config, run_dataset
 
     say = log or (lambda _m: None)
     if importlib.util.find_spec("torch") is None:  # before hours of rendering, not after
         raise ModuleNotFoundError("No module named 'torch'", name="torch")
+    device = _check_arguments(configs, count=count, minutes=minutes, seeds=seeds,
+                              workers=workers, device=device)
     for config in configs:  # a bad config fails before anything is made or trained
         load_config(config)
     specs = _real_specs(data)
@@ -159,8 +195,7 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     (out / "models").mkdir(parents=True, exist_ok=True)
     models: list[dict] = []
     for config in configs:
-        name = Path(config).stem if os.sep in str(config) or str(config).endswith(".toml") \
-            else str(config)
+        name = _config_name(config)
         folder = out / "pairs" / name
         say(f"{count} pairs of {config} ...")
         run_dataset(config, folder, count=count, workers=workers, progress=False)
@@ -187,10 +222,11 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     from matcher.learned import load_model
 
     for info in models:
-        training = load_model(info["model"]).header["training"]
-        info.update(steps=training["steps"], patches=training["patches"],
-                    train_s=training["seconds"], train_loss=training["train_loss"],
-                    val_loss=training["val_loss"])
+        training = load_model(info["model"]).header.get("training")
+        training = training if isinstance(training, dict) else {}  # a model from elsewhere
+        info.update(steps=training.get("steps"), patches=training.get("patches"),
+                    train_s=training.get("seconds"), train_loss=training.get("train_loss"),
+                    val_loss=training.get("val_loss"))
         m = resolve_matcher(f"learned:{info['model']}")
         label = f"learned on {info['trained_on']}"
         for scene in scenes:
