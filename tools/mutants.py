@@ -16,10 +16,12 @@ Usage::
     .venv/bin/python tools/mutants.py --list                # what would be planted
     .venv/bin/python tools/mutants.py -k spiral             # mutants whose name contains "spiral"
     .venv/bin/python tools/mutants.py --under src/synth --under src/scenes   # synth and scenes
+    .venv/bin/python tools/mutants.py -k learned: -k train: -k validate:   # the six of those
 
 It is slow (each mutant recompiles the numba kernels it uses; the synth mutants render): about
-a minute per mutant on 2 cores, 51 minutes for all 43 (every one killed). It does not
-run in CI.
+a minute per mutant on 2 cores, 51 minutes for the 43 of the matcher, synth and scenes (every
+one killed); 18 minutes for the six of the learned matcher, training and validate's gate
+(``-k learned: -k train: -k validate:``, every one killed). It does not run in CI.
 """
 
 from __future__ import annotations
@@ -382,6 +384,64 @@ MUTANTS += (
         (("os.chmod(stage, _default_dir_mode())", "os.chmod(stage, 0o700)"),),
         "render --out, demo and render --from-manifest folders are closed to other users",
         _EXPORT,
+    ),
+)
+
+
+# planted in the learned matcher, training and validate's gate: each went unnoticed by the tests
+# of its module until its pin (the names start with "learned:", "train:" or "validate:")
+# the training module's tests but those of learning quality, the docs' example and the
+# DataLoader over every layout (minutes each; none reads what these mutants change)
+_TRAIN = ("tests/synth/test_train.py", "-m", "not slow", "-k",
+          "not lowers_the_loss and not torch_example and not dataloader_with_two_workers")
+
+MUTANTS += (
+    Mutant(
+        "train: checkpoint written in place",
+        "src/synth/jobs/train/loop.py",
+        (("    atomic_write_bytes(path, buf.getvalue())", "    path.write_bytes(buf.getvalue())"),),
+        "a kill during the write leaves a cut checkpoint in place of the last good one",
+        _TRAIN,
+    ),
+    Mutant(
+        "train: --resume accepts another --seed",
+        "src/synth/jobs/train/loop.py",
+        (("diff = [k for k in want if want[k] != got.get(k)]",
+          'diff = [k for k in want if k != "seed" and want[k] != got.get(k)]'),),
+        "a run resumed with another seed mixes two runs' batches in one model",
+        _TRAIN,
+    ),
+    Mutant(
+        "train: training split includes the validation samples",
+        "src/synth/jobs/train/sources.py",
+        (("splits[split] = StereoDataset(root, split=split, val_fraction=val_fraction)",
+          'splits[split] = StereoDataset(root, split="all" if split == "train" else split, '
+          "val_fraction=val_fraction)"),),
+        "the validation loss and the chosen aggregation are measured on pairs trained on",
+        _TRAIN,
+    ),
+    Mutant(
+        "validate: regression threshold compared with >=",
+        "src/synth/validate/differences.py",
+        (('and r["verdict"] == "worse" and r["mean"] > points]',
+          'and r["verdict"] == "worse" and r["mean"] >= points]'),),
+        "--fail-on regression:POINTS fails a difference of exactly POINTS",
+        ("tests/synth/test_validate_baseline.py",),
+    ),
+    Mutant(
+        "validate: real scene divisor ignored",
+        "src/synth/validate/real.py",
+        (("sample = load_middlebury_2005(self.path, divisor=self.divisor)",
+          "sample = load_middlebury_2005(self.path)"),),
+        "middlebury:DIR:DIVISOR scores against codes divided by the divisor its folder name says",
+        ("tests/synth/test_validate_real.py",),
+    ),
+    Mutant(
+        "learned: interpolated right features not re-normalised",
+        "src/matcher/learned/loss.py",
+        (("    return F.normalize(mixed, dim=0)", "    return mixed"),),
+        "the loss scores a positive between two pixels below a cosine (shorter vector)",
+        ("tests/matcher/test_learned.py",),
     ),
 )
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 
 import numpy as np
 import pytest
@@ -347,3 +348,97 @@ def test_cli_bad_device_is_one_error_line_before_any_work(tmp_path, monkeypatch)
                            env={"STEREOFORGE_DEVICE": "cuda"})
     assert r.exit_code == 0, r.output
     assert r.output.startswith("learned:net D=8:") and out.is_file()
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -float("inf")])
+def test_weights_that_are_not_finite_are_refused_on_save_and_on_load(tmp_path, value):
+    good = save_model(tmp_path / "good.pt", _model().net, {})
+    blob = torch.load(good, weights_only=True)
+    blob["state_dict"]["convs.1.bias"][2] = value  # one number of a diverged training
+    bad = _write_other(tmp_path / "bad.pt", blob)
+    with pytest.raises(ModelError, match=r"the weights convs\.1\.bias are not finite") as info:
+        load_model(bad)
+    assert str(bad) in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(MatcherError, match="not finite"):
+        resolve_matcher(f"learned:{bad}")
+    net = _model().net
+    with torch.no_grad():
+        net.convs[0].weight[0, 0, 1, 1] = value
+    with pytest.raises(ValueError, match="hold NaN or inf"):
+        save_model(tmp_path / "diverged.pt", net, {})
+    assert not (tmp_path / "diverged.pt").exists()
+
+
+@pytest.mark.parametrize("channels, layers, words", [
+    (10**9, 3, "channels: expected an integer 1..1024, got 1000000000"),
+    (8, 10**6, "layers: expected an integer 1..32"),
+    (1024, 32, "1024 channels x 32 layers has 292,594,688 weights; at most 33,554,432"),
+    (True, 3, "channels: expected an integer"),
+    ("8", 3, "channels: expected an integer"),
+])
+def test_header_sizes_are_bounded_before_anything_is_allocated(tmp_path, monkeypatch, channels,
+                                                                layers, words):
+    from matcher.learned import model as model_module
+
+    blob = torch.load(save_model(tmp_path / "good.pt", _model().net, {}), weights_only=True)
+    blob["header"]["architecture"].update(channels=channels, layers=layers)
+    bad = _write_other(tmp_path / "bad.pt", blob)
+
+    def no_network(arch):  # a network the header sized would be allocated here
+        raise AssertionError(f"a network of {arch} was built from an unchecked header")
+
+    monkeypatch.setattr(model_module, "PatchNet", no_network)
+    with pytest.raises(ModelError) as info:
+        load_model(bad)
+    assert words in str(info.value) and str(bad) in str(info.value)
+
+
+def test_one_architecture_limit_for_train_and_load_model(tmp_path):
+    from matcher.learned.network import MAX_CHANNELS, MAX_LAYERS, check_architecture
+
+    top = check_architecture(MAX_CHANNELS, 4)  # the largest width train accepts ...
+    torch.manual_seed(0)
+    path = save_model(tmp_path / "wide.pt", PatchNet(top), {})
+    assert load_model(path).arch == top  # ... load_model reads
+    blob = torch.load(path, weights_only=True)
+    blob["header"]["architecture"]["channels"] = MAX_CHANNELS + 1
+    with pytest.raises(ModelError, match=f"expected an integer 1..{MAX_CHANNELS}, got 1025"):
+        load_model(_write_other(tmp_path / "wider.pt", blob))
+    with pytest.raises(ValueError, match=f"layers: expected an integer 1..{MAX_LAYERS}"):
+        check_architecture(8, MAX_LAYERS + 1)
+
+
+@pytest.mark.parametrize("inference, words", [
+    ({"aggregate": 4}, "inference.aggregate: expected 1 (none) or an odd box side 3..511, got 4"),
+    ({"aggregate": 513}, "inference.aggregate: expected an integer in [1, 511], got 513"),
+    ({"aggregate": 5.0}, "inference.aggregate: expected an integer"),
+    ({"lr_check": "yes"}, "inference.lr_check: expected True or False"),
+    ({"subpixel": 1}, "inference.subpixel: expected True or False"),
+])
+def test_header_inference_steps_are_checked_on_save_and_on_load(tmp_path, inference, words):
+    with pytest.raises(ValueError, match=re.escape(words)):
+        save_model(tmp_path / "m.pt", _model().net, {"inference": inference})
+    blob = torch.load(save_model(tmp_path / "good.pt", _model().net, {}), weights_only=True)
+    blob["header"]["inference"].update(inference)
+    bad = _write_other(tmp_path / "bad.pt", blob)
+    with pytest.raises(ModelError, match=re.escape(words)):
+        load_model(bad)
+    with pytest.raises(MatcherError, match=re.escape(words)):  # refused when named, not per pair
+        resolve_matcher(f"learned:{bad}")
+
+
+def test_the_scores_of_interpolated_right_features_are_cosines():
+    from matcher.learned import pair_scores
+
+    # right features e1 at column 0 and e2 at column 1: halfway between, the interpolated
+    # feature (e1 + e2) / 2 is re-normalised, so its cosine with e1 is 1/sqrt(2), not 1/2
+    fr = torch.zeros(4, 1, 2)
+    fr[0, 0, 0], fr[1, 0, 1] = 1.0, 1.0
+    fl = torch.zeros(4, 1, 1)
+    fl[0, 0, 0] = 1.0
+    idx = torch.zeros(1, dtype=torch.int64)
+    s_pos, s_neg = pair_scores(fl, fr, idx, idx, torch.tensor([0.5]), torch.tensor([1.0]))
+    assert float(s_pos) == pytest.approx(2 ** -0.5, abs=1e-6)
+    assert float(s_neg) == pytest.approx(0.0, abs=1e-6)
+    s_quarter, _ = pair_scores(fl, fr, idx, idx, torch.tensor([0.25]), torch.tensor([0.0]))
+    assert float(s_quarter) == pytest.approx(0.75 / (0.75**2 + 0.25**2) ** 0.5, abs=1e-6)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import importlib.util
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -336,3 +337,180 @@ def test_the_header_records_the_device_and_the_batch(data, tmp_path, monkeypatch
     assert default_crops("cpu") == 16
     monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
     assert default_crops("auto") == GPU_CROPS
+
+
+def _alive(pids: set[int]) -> list[int]:
+    return [p for p in pids if Path(f"/proc/{p}").exists()
+            and "zombie" not in Path(f"/proc/{p}/status").read_text().lower()]
+
+
+def test_a_corrupt_sample_under_two_workers_ends_the_run_with_one_line(data, tmp_path):
+    """The hang: a worker's exception, raised again by torch with the loader in its traceback,
+    kept the workers alive and the trainer waiting for them after its Error: line. Bounded in
+    time, so a regression fails instead of hanging the suite."""
+    import shutil
+
+    bad = tmp_path / "bad"
+    shutil.copytree(data, bad)
+    (source,) = open_sources([str(bad)])
+    batches = PatchBatches([source], seed=0, radius=4, crops=1)
+    item = batches.pairs[batches._pair_number(6)][1]  # met at step 6 (one crop per step)
+    index = StereoDataset(bad, split="train").indices[item]
+    png = bad / "MiddEval3" / "trainingF" / f"{index:06d}" / "im0.png"
+    png.write_bytes(png.read_bytes()[:200])  # cut short: OpenCV cannot decode it
+    out = tmp_path / "m.pt"
+    proc = subprocess.Popen(CLI + ["train", str(bad), "--out", str(out), "--steps", "40",
+                                   "--workers", "2", "--crops", "1", "--device", "cpu",
+                                   "--checkpoint-minutes", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    workers: set[int] = set()
+    deadline = time.monotonic() + 240
+    while proc.poll() is None and time.monotonic() < deadline:
+        workers.update(_children(proc.pid))
+        time.sleep(0.2)
+    if proc.poll() is None:
+        proc.kill()
+        proc.communicate()
+        pytest.fail("train did not end after a worker failed (the DataLoader hang)")
+    _, err = proc.communicate()
+    errors = [line for line in err.splitlines() if line.startswith("Error:")]
+    assert proc.returncode == 2 and len(errors) == 1 and "Traceback" not in err, err
+    assert f"sample {index} " in errors[0] and f"{png}: not an image" in errors[0], errors[0]
+    assert workers, "the run had no worker process to test"
+    time.sleep(1.0)
+    assert _alive(workers) == [], "worker processes outlived the trainer"
+    assert not out.exists()  # no model
+    blob = torch.load(Path(f"{out}.ckpt"), map_location="cpu", weights_only=True)
+    assert blob["format"] == "stereoforge-train-checkpoint" and not blob["finished"]
+    assert blob["state"]["step"] == 6  # the last step done before the corrupt sample
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")
+                or p.suffix in (".tmp", ".lock")]
+
+
+def _refused(tmp_path, words, **kw):
+    from synth.jobs.train import TrainConfig, train
+
+    options = {k: kw.pop(k) for k in ("device", "workers", "checkpoint_minutes") if k in kw}
+    cfg = TrainConfig(**{"out": str(tmp_path / "m.pt"), "steps": 1, **kw})
+    with pytest.raises(ValueError) as info:
+        train(cfg, show_progress=False, **options)
+    assert words in str(info.value) and "\n" not in str(info.value), str(info.value)
+    assert list(tmp_path.iterdir()) == []  # refused before any work
+
+
+def _no_gpu_device() -> str:
+    count = torch.cuda.device_count() if torch.cuda.is_available() else 0
+    return "cuda" if count == 0 else f"cuda:{count}"
+
+
+@pytest.mark.parametrize("option, words", [
+    ({"minutes": float("inf"), "steps": None}, "--minutes: expected a finite number in (0, "),
+    ({"minutes": float("nan"), "steps": None}, "--minutes: expected a finite number"),
+    ({"steps": 10**12}, "--steps: expected an integer in [1, 1000000000]"),
+    ({"channels": 1025}, "channels: expected an integer 1..1024, got 1025"),
+    ({"layers": 33}, "layers: expected an integer 1..32, got 33"),
+    ({"crops": 10**6}, "--crops: expected an integer in [1, 4096]"),
+    ({"seed": 2**64}, "--seed: expected an integer in [0, 9223372036854775807]"),
+    ({"crop": 300}, "--crop 300 with --layers 4 needs images of at least 308x308 pixels"),
+    ({"crop": 90, "layers": 4}, "the smallest of"),
+    ({"device": "foo"}, "--device: expected auto, cpu, cuda or cuda:N, got 'foo'"),
+    ({"device": _no_gpu_device()}, "--device '"),
+    ({"workers": -1}, "--workers: expected an integer in [0, 256]"),
+    ({"checkpoint_minutes": float("nan")}, "--checkpoint-minutes: expected a finite number"),
+])
+def test_every_option_is_checked_before_any_work(data, tmp_path, option, words):
+    _refused(tmp_path, words, sources=(str(data),), **option)
+
+
+def test_a_run_that_learned_nothing_writes_no_model(data, tmp_path):
+    out = tmp_path / "m.pt"
+    r = _cli(["train", str(data), "--out", str(out), "--minutes", "0.001", "--workers", "0",
+              "--device", "cpu"])
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and lines[-1].startswith("Error: --minutes 0.001: the budget ran "
+                                                      "out before the first step"), r.stderr
+    assert "no model written" in lines[-1] and "Traceback" not in r.stderr
+    assert not out.exists()
+
+
+def test_resume_refuses_another_seed(data, tmp_path):
+    out = tmp_path / "m.pt"
+    args = ["train", str(data), "--out", str(out), "--steps", "2", "--crops", "2", "--workers",
+            "0", "--device", "cpu"]
+    _cli(args, check=True)
+    r = _cli([*args, "--resume", "--seed", "1"])
+    assert r.returncode == 2, r.stderr
+    assert "was made with seed = 0, this run asks for 1" in r.stderr
+
+
+def test_the_training_split_holds_no_validation_sample(data):
+    (source,) = open_sources([str(data)])
+    everything = StereoDataset(data)
+    assert source.n_val > 0 and source.n_train + source.n_val == len(everything)
+    assert source.n_train == len(StereoDataset(data, split="train"))
+    train = [source.load("train", i).left for i in range(source.n_train)]
+    for j in range(source.n_val):
+        val = source.load("val", j).left
+        assert not any(np.array_equal(val, t) for t in train)
+
+
+def test_a_checkpoint_replaces_the_old_one_atomically(data, tmp_path):
+    """Written in place, a checkpoint cut by a kill is lost with the one before it; replaced by
+    a rename, the old file (here also reachable by a hard link) is never touched."""
+    from synth.jobs.train.loop import TrainConfig, _save_checkpoint, _State
+
+    sources = open_sources([str(data)])
+    cfg = TrainConfig(sources=(str(data),), out=str(tmp_path / "m.pt"), steps=3)
+    torch.manual_seed(0)
+    net = PatchNet(Architecture(channels=4, layers=2))
+
+    class _Optimiser:  # torch.optim in this process (it renders) would import torch._dynamo
+        def state_dict(self) -> dict:
+            return {"state": {}, "param_groups": []}
+
+    opt = _Optimiser()
+    ckpt = tmp_path / "m.pt.ckpt"
+    _save_checkpoint(ckpt, cfg, sources, net, opt, _State(step=1), finished=False)
+    before = ckpt.read_bytes()
+    os.link(ckpt, tmp_path / "earlier")
+    _save_checkpoint(ckpt, cfg, sources, net, opt, _State(step=2), finished=False)
+    assert (tmp_path / "earlier").read_bytes() == before
+    assert torch.load(ckpt, weights_only=True)["state"]["step"] == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "m.pt.ckpt"]
+
+
+def test_memory_that_cannot_be_had_is_an_environment_error(data, tmp_path):
+    import resource
+
+    def limit():  # 8 GiB of address space: torch needs ~3.5 to start, the step asks for ~15 more
+        resource.setrlimit(resource.RLIMIT_AS, (8 << 30, 8 << 30))
+
+    out = tmp_path / "m.pt"
+    r = subprocess.run(CLI + ["train", str(data), "--out", str(out), "--steps", "2", "--workers",
+                              "0", "--device", "cpu", "--channels", "1024", "--crops", "512",
+                              "--crop", "80"], preexec_fn=limit, capture_output=True, text=True,
+                       timeout=600)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    assert re.match(r"Error: out of memory: could not allocate [0-9.]+ GiB for the network of "
+                    r"1024 maps x 4 layers on a batch of 512 crops of 80x80 pixels", lines[-1]), \
+        lines[-1]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("option, words", [
+    ({"configs": []}, "--configs: expected dataset configs separated by commas"),
+    ({"configs": ["", "", ""]}, "got ',,'"),
+    ({"configs": ["flying", "flying"]}, "--configs: flying comes twice"),
+    ({"device": "foo"}, "--device: expected auto, cpu, cuda or cuda:N, got 'foo'"),
+    ({"device": _no_gpu_device()}, "--device '"),
+    ({"minutes": float("inf")}, "--minutes: expected a finite number"),
+    ({"seeds": []}, "--seeds: give at least one seed"),
+])
+def test_bench_transfer_refuses_bad_arguments_before_rendering(tmp_path, option, words):
+    from synth.jobs.bench.transfer import bench_transfer
+
+    with pytest.raises(ValueError, match=re.escape(words)):
+        bench_transfer(**{"configs": ["flying"], "count": 2, "minutes": 0.1, "out": tmp_path,
+                          **option})
+    assert list(tmp_path.iterdir()) == []

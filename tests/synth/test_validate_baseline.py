@@ -154,3 +154,93 @@ def test_a_baseline_of_another_suite_axis_set_or_pairs_is_refused(ct9_run, tmp_p
     assert "--suite belongs to a run" in CliRunner().invoke(
         main, ["validate", "--compare", str(ct9_run), str(ct9_run), "--out",
                str(tmp_path / "c"), "--suite", "full"]).output
+
+
+def test_a_regression_is_worse_by_more_than_points_not_by_exactly_points():
+    from synth.validate.differences import regressions
+
+    row = {"reference": "baseline ct:9", "axis": "noise", "scene": "", "region": "all",
+           "verdict": "worse", "mean": 2.0, "half_width": 0.5}
+    assert regressions([row], "baseline ct:9", 2.0) == []  # exactly the threshold: no failure
+    assert regressions([row], "baseline ct:9", 1.999) == [row]
+    assert regressions([{**row, "verdict": "no clear difference"}], "baseline ct:9", 1.0) == []
+
+
+def _damaged(ct9_run, tmp_path, name, change):
+    folder = tmp_path / name
+    shutil.copytree(ct9_run, folder)
+    path = folder / "results.csv"
+    path.write_bytes(change(path.read_bytes()))
+    return folder
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("name, change, words", [
+    ("empty", lambda b: b"", "results.csv is empty"),
+    ("header_only", lambda b: b.split(b"\n")[0] + b"\n", "holds a header and no rows"),
+    ("truncated", lambda b: b[:len(b) // 2], "is cut short (its last line is incomplete)"),
+    ("short_line", lambda b: b"\n".join(line.rsplit(b",", 3)[0] if i == 5 else line
+                                        for i, line in enumerate(b.split(b"\n"))),
+     "line 6 has 18 of 21 fields"),
+    ("missing_row", lambda b: b"\n".join(line for i, line in enumerate(b.split(b"\n"))
+                                         if i != 7), "has no row of ct:9 on pairs/"),
+    ("other_columns", lambda b: b.replace(b"bad_2", b"bad_3", 1), "has no column bad_2"),
+])
+def test_a_baseline_needs_a_complete_results_csv(ct9_run, tmp_path, name, change, words):
+    from synth.validate.baseline import load_run
+    from stereoforge.errors import DatasetError
+
+    folder = _damaged(ct9_run, tmp_path, name, change)
+    with pytest.raises(DatasetError) as info:
+        load_run(folder)
+    text = str(info.value)
+    assert words in text and f"--baseline {folder}: results.csv" in text and "\n" not in text
+    assert "run `stereoforge validate" in text
+
+
+@pytest.mark.gl
+def test_a_truncated_baseline_fails_the_gate_instead_of_passing_it(ct9_run, tmp_path):
+    folder = _damaged(ct9_run, tmp_path, "cut", lambda b: b[:len(b) // 3])
+    result = _validate(PLANTED, "--out", tmp_path / "new", "--axes", AXES, "--against",
+                       "sgbm:5", "--baseline", folder, "--fail-on", "regression",
+                       "--skip-battery")
+    assert result.exit_code == 2, result.output
+    errors = [x for x in result.output.splitlines() if x.startswith("Error:")]
+    assert len(errors) == 1 and "is cut short" in errors[0]
+    assert not (tmp_path / "new").exists()
+
+
+@pytest.mark.gl
+def test_a_baseline_lends_its_real_scenes(tiny_suite, tmp_path, renderer):
+    base = tmp_path / "base"
+    first = _validate("ct:9", "--out", base, "--axes", "noise", "--against", "",
+                      "--real", "skimage:motorcycle", "--skip-battery")
+    assert first.exit_code == 0, first.output
+    out = tmp_path / "new"
+    result = _validate("ct:9", "--out", out, "--axes", "noise", "--against", "",
+                       "--baseline", base, "--skip-battery")
+    assert result.exit_code == 0, result.output
+    assert "real scenes compared with the baseline (the baseline's): skimage:motorcycle" \
+        in result.output
+    with open(out / "results.csv") as f:
+        real = {r["scene"] for r in csv.DictReader(f) if r["axis"] == "real"}
+    assert real == {"skimage:motorcycle"}
+    assert json.loads((out / "run.json").read_text())["real"] == ["skimage:motorcycle"]
+    rows = [r for r in _differences(out) if r["reference"] == "baseline ct:9"
+            and r["scene"] == "skimage:motorcycle"]
+    assert rows and {float(r["mean"]) for r in rows} == {0.0}
+    # an explicit other set is still refused, the difference named
+    other = tmp_path / "third" / "Scene"
+    other.mkdir(parents=True)
+    import cv2
+    import numpy as np
+
+    for name in ("view1", "view5"):
+        cv2.imwrite(str(other / f"{name}.png"), np.zeros((8, 12, 3), np.uint8))
+    cv2.imwrite(str(other / "disp1.png"), np.full((8, 12), 6, np.uint8))
+    refused = _validate("ct:9", "--out", tmp_path / "x", "--axes", "noise", "--against", "",
+                        "--baseline", base, "--real", f"middlebury:{other}", "--skip-battery")
+    assert refused.exit_code == 2, refused.output
+    assert "other real scenes: only in the baseline: skimage:motorcycle; only in this run: " \
+           "middlebury:third/Scene; leave out --real to take the baseline's " \
+           "(skimage:motorcycle)" in refused.output

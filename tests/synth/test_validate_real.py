@@ -133,3 +133,66 @@ def test_bad_real_specs_are_one_error_line(tmp_path):
         errors = [x for x in result.output.splitlines() if x.startswith("Error:")]
         assert len(errors) == 1 and message in errors[0] and spec in errors[0], result.output
         assert not (tmp_path / "v").exists()
+
+
+def _scene_2005(folder, codes):
+    """A Middlebury 2005 scene folder: noise views and disp1.png holding ``codes``."""
+    import cv2
+
+    folder.mkdir(parents=True)
+    rng = np.random.default_rng(0)
+    for name in ("view1", "view5"):
+        cv2.imwrite(str(folder / f"{name}.png"), rng.integers(0, 256, (*codes.shape, 3), np.uint8))
+    cv2.imwrite(str(folder / "disp1.png"), codes)
+    return folder
+
+
+def test_the_divisor_of_a_real_scene_is_applied(tmp_path):
+    from synth.validate.real import resolve_real
+
+    codes = np.tile(np.array([0, 6, 12, 30], np.uint8), (4, 2))
+    scene = _scene_2005(tmp_path / "third" / "Scene", codes)  # "third": 3 when not given
+    gts = {}
+    for tail in ("", ":3", ":1.5", ":6"):
+        (spec,) = resolve_real([f"middlebury:{scene}{tail}"])
+        gts[tail] = spec.load()[2]
+    known = codes > 0
+    np.testing.assert_array_equal(gts[""][known], codes[known] / np.float32(3))
+    np.testing.assert_array_equal(gts[":3"], gts[""])
+    np.testing.assert_array_equal(gts[":1.5"][known], codes[known] / np.float32(1.5))
+    np.testing.assert_array_equal(gts[":6"][known], codes[known] / np.float32(6))
+    assert np.isinf(gts[":6"][~known]).all()
+
+
+def test_each_part_of_a_real_spec_has_its_own_message(tmp_path):
+    from matcher.io import encode_png
+    from synth.validate.real import resolve_real
+
+    scene = _scene_2005(tmp_path / "third" / "Scene", np.full((4, 6), 9, np.uint8))
+    m14 = tmp_path / "m14" / "Scene"
+    m14.mkdir(parents=True)
+    for name in ("im0.png", "im1.png"):
+        (m14 / name).write_bytes(encode_png(np.zeros((4, 6, 3), np.uint8)))
+    kitti = tmp_path / "kitti"
+    (kitti / "image_2").mkdir(parents=True)
+    for spec, message in (
+            (f"middlebury:{scene}:-3", "DIVISOR must be a number > 0 (disparity = code / "
+                                       "DIVISOR: 3 at third size), got '-3'"),
+            (f"middlebury:{scene}:three", "DIVISOR must be a number > 0"),
+            (f"middlebury:{scene}:nan", "DIVISOR must be a number > 0"),
+            (f"middlebury:{tmp_path / 'absent'}:3", "is not a folder"),
+            (f"kitti:{kitti}:a-b", "FIRST-LAST must be two frame numbers, FIRST <= LAST (e.g. "
+                                   "0-9), got 'a-b'"),
+            (f"kitti:{kitti}:9-2", "got '9-2'"),
+            (f"middlebury:{m14}", f"{m14} has no ground truth: no disp0GT.pfm or disp0.pfm"),
+            (f"middlebury:{m14}:3", "is in the 2014/MiddEval3 layout (im0.png), whose ground "
+                                    "truth is in pixels: it takes no DIVISOR; drop ':3'")):
+        with pytest.raises(ValueError) as info:
+            resolve_real([spec])
+        assert message in str(info.value) and spec in str(info.value), str(info.value)
+    write_pfm(m14 / "disp0.pfm", np.ones((4, 6), np.float32))  # the 2014 archives' name
+    from matcher.io import format_calib
+
+    (m14 / "calib.txt").write_text(format_calib({"cam0": np.eye(3), "ndisp": 8}))
+    (spec,) = resolve_real([f"middlebury:{m14}"])
+    assert spec.kind == "middlebury2014" and spec.divisor is None

@@ -11,11 +11,11 @@ from matcher._validation import check_image, check_max_disparity, check_same_sha
 from matcher.cost import aggregate_cost
 from matcher.learned.cost import COST_SCALE, feature_cost, feature_tensor
 from matcher.learned.device import resolve_device as _resolve
-from matcher.learned.model import LearnedModel, load_model
+from matcher.learned.model import LearnedModel, check_inference, load_model
 from matcher.learned.volume import volume_disparity
 from matcher.result import MatchResult
 from matcher.select import winner_takes_all
-from stereoforge.validation import check_bool, check_int
+from stereoforge.validation import check_int
 
 __all__ = ["PIPELINES", "VOLUME_BYTES", "match_learned", "resolve_device"]
 
@@ -85,14 +85,10 @@ def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str
     if not isinstance(model, LearnedModel):
         model = load_model(model)
     steps = model.inference
-    agg = steps["aggregate"] if aggregate is None else aggregate
-    agg = check_int(agg, "aggregate", lo=1)
-    if agg != 1 and agg % 2 == 0:
-        from stereoforge.errors import ParameterError
-
-        raise ParameterError(f"aggregate: expected 1 (none) or an odd box side >= 3, got {agg}")
-    lr = check_bool(steps["lr_check"] if lr_check is None else lr_check, "lr_check")
-    sub = check_bool(steps["subpixel"] if subpixel is None else subpixel, "subpixel")
+    steps = check_inference(steps["aggregate"] if aggregate is None else aggregate,
+                            steps["lr_check"] if lr_check is None else lr_check,
+                            steps["subpixel"] if subpixel is None else subpixel)
+    agg, lr, sub = steps["aggregate"], steps["lr_check"], steps["subpixel"]
     lr_tolerance = check_int(lr_tolerance, "lr_tolerance", lo=0)
     left, right = check_image(left, "left"), check_image(right, "right")
     check_same_shape(left, right)

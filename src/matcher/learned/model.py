@@ -13,8 +13,10 @@ names and hashes, steps, patches, seed, minutes, device, torch version) and the
 ``stereoforge_version`` that wrote it.
 
 A file that is not such an archive (truncated, corrupt, another program's), or holds another
-architecture, or weights that do not fit its header, raises :class:`ModelError` with one line
-naming the file and what is wrong.
+architecture, an architecture beyond the one limit (:func:`matcher.learned.network.check_architecture`,
+checked before the network is built: a header never sizes an allocation), inference steps out of
+range, or weights that do not fit its header or are not finite, raises :class:`ModelError` with
+one line naming the file and what is wrong.
 """
 
 from __future__ import annotations
@@ -27,16 +29,19 @@ from typing import Any
 import torch
 
 from matcher.io import atomic_write_bytes
-from matcher.learned.network import ARCHITECTURE, Architecture, PatchNet
-from stereoforge.errors import FormatError
+from matcher.learned.network import ARCHITECTURE, Architecture, PatchNet, check_architecture
+from stereoforge.errors import FormatError, ParameterError, ParameterTypeError
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "INFERENCE_DEFAULTS", "LearnedModel", "ModelError",
-           "load_model", "model_bytes", "save_model"]
+__all__ = ["FORMAT", "FORMAT_VERSION", "INFERENCE_DEFAULTS", "MAX_AGGREGATE", "LearnedModel",
+           "ModelError", "check_inference", "load_model", "model_bytes", "save_model"]
 
 FORMAT = "stereoforge-learned-matcher"
 FORMAT_VERSION = 1
 #: The cost-volume steps a model runs with unless told otherwise (docs/learning.md).
 INFERENCE_DEFAULTS = {"aggregate": 5, "lr_check": False, "subpixel": True}
+#: Largest box side of the aggregation: a box sum of the largest cost fits uint32
+#: (:data:`matcher.learned.cost.COST_SCALE`).
+MAX_AGGREGATE = 511
 #: Input transform recorded in the header; the only one this version reads.
 INPUT = "grey BT.601, standardised per image (zero mean, unit std)"
 _TRAIN_HINT = "train one with `stereoforge train DATASET --out MODEL.pt`"
@@ -83,8 +88,38 @@ def _version() -> str:
         return "unknown"
 
 
+def check_inference(aggregate: object, lr_check: object, subpixel: object, *,
+                    where: str = "") -> dict:
+    """The inference steps, checked: ``aggregate`` 1 (none) or an odd box side
+    3..:data:`MAX_AGGREGATE`, ``lr_check`` and ``subpixel`` booleans (:class:`ParameterError`)."""
+    from stereoforge.validation import check_bool, check_int
+
+    agg = check_int(aggregate, f"{where}aggregate", lo=1, hi=MAX_AGGREGATE)
+    if agg != 1 and agg % 2 == 0:
+        raise ParameterError(f"{where}aggregate: expected 1 (none) or an odd box side "
+                             f"3..{MAX_AGGREGATE}, got {agg}")
+    return {"aggregate": agg, "lr_check": check_bool(lr_check, f"{where}lr_check"),
+            "subpixel": check_bool(subpixel, f"{where}subpixel")}
+
+
+def _nonfinite(state: dict) -> str | None:
+    """The name of the first weight tensor that is not floating point or holds NaN or inf."""
+    for name, value in state.items():
+        if not isinstance(value, torch.Tensor) or not value.is_floating_point() \
+                or not bool(torch.isfinite(value).all()):
+            return str(name)
+    return None
+
+
 def model_bytes(net: PatchNet, header: dict) -> bytes:
-    """The bytes of a model file for ``net`` (weights moved to the CPU) and ``header``."""
+    """The bytes of a model file for ``net`` (weights moved to the CPU) and ``header``.
+
+    Raises
+    ------
+    ParameterError
+        The header's inference steps are out of range, or a weight is NaN or inf (a diverged
+        training): such a file would match garbage.
+    """
     import io
 
     import json
@@ -92,7 +127,14 @@ def model_bytes(net: PatchNet, header: dict) -> bytes:
     full = {"architecture": net.arch.to_dict(), "input": INPUT,
             "inference": dict(INFERENCE_DEFAULTS), "stereoforge_version": _version(), **header}
     full = json.loads(json.dumps(full, default=str))  # plain JSON data: weights_only reads it
+    steps = {**INFERENCE_DEFAULTS, **full["inference"]}
+    check_inference(steps["aggregate"], steps["lr_check"], steps["subpixel"],
+                    where="header inference.")
     state = {k: v.detach().to("cpu").contiguous() for k, v in net.state_dict().items()}
+    bad = _nonfinite(state)
+    if bad is not None:
+        raise ParameterError(f"model weights {bad} hold NaN or inf (the training diverged); "
+                             "no model written: train again with a smaller learning rate")
     buf = io.BytesIO()
     torch.save({"format": FORMAT, "format_version": FORMAT_VERSION, "header": full,
                 "state_dict": state}, buf)
@@ -120,12 +162,23 @@ def _architecture(path: Path, header: Any) -> Architecture:
     if arch.get("kernel", 3) != 3 or header.get("input", INPUT) != INPUT:
         raise _fail(path, f"a {ARCHITECTURE} variant this version does not read (kernel "
                           f"{arch.get('kernel')!r}, input {header.get('input')!r})")
-    channels, layers = arch.get("channels"), arch.get("layers")
-    if not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 1024
-               for v in (channels, layers)):
-        raise _fail(path, f"architecture with channels {channels!r} and layers {layers!r} "
-                          "(expected integers 1..1024)")
-    return Architecture(channels=channels, layers=layers)
+    try:  # the one limit, before anything is allocated
+        return check_architecture(arch.get("channels"), arch.get("layers"),
+                                  where="the header's architecture")
+    except ParameterError as exc:
+        raise _fail(path, str(exc)) from None
+
+
+def _inference(path: Path, header: dict) -> None:
+    steps = header.get("inference", {})
+    if not isinstance(steps, dict):
+        raise _fail(path, f"the header's inference is {type(steps).__name__}, not a table")
+    steps = {**INFERENCE_DEFAULTS, **steps}
+    try:
+        check_inference(steps["aggregate"], steps["lr_check"], steps["subpixel"],
+                        where="the header's inference.")
+    except (ParameterError, ParameterTypeError) as exc:
+        raise _fail(path, str(exc)) from None
 
 
 def load_model(path: str | os.PathLike[str]) -> LearnedModel:
@@ -156,10 +209,15 @@ def load_model(path: str | os.PathLike[str]) -> LearnedModel:
                           f"stereoforge reads {FORMAT_VERSION}")
     header = blob.get("header")
     arch = _architecture(path, header)
-    net = PatchNet(arch)
+    _inference(path, header)
     state = blob.get("state_dict")
     if not isinstance(state, dict):
         raise _fail(path, "no weights in the file")
+    bad = _nonfinite(state)
+    if bad is not None:
+        raise _fail(path, f"the weights {bad} are not finite numbers (NaN or inf): the model "
+                          "would match garbage")
+    net = PatchNet(arch)
     try:
         net.load_state_dict(state, strict=True)
     except RuntimeError as exc:

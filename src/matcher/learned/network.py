@@ -20,10 +20,17 @@ from torch.nn import functional as F
 
 from matcher._validation import rgb_to_grey
 
-__all__ = ["ARCHITECTURE", "Architecture", "PatchNet", "standardise"]
+__all__ = ["ARCHITECTURE", "MAX_CHANNELS", "MAX_LAYERS", "MAX_WEIGHTS", "Architecture",
+           "PatchNet", "check_architecture", "standardise"]
 
 #: Name of the architecture in model files.
 ARCHITECTURE = "mccnn-fast"
+#: The one limit of architectures, for ``stereoforge train`` and :func:`load_model` alike: feature
+#: maps per layer, layers, and weights in all (float32: 128 MiB). Checked before a network is
+#: built, so a model header cannot size an allocation.
+MAX_CHANNELS = 1024
+MAX_LAYERS = 32
+MAX_WEIGHTS = 1 << 25
 
 
 @dataclass(frozen=True)
@@ -46,8 +53,47 @@ class Architecture:
         """Side of the window one feature describes."""
         return 2 * self.layers + 1
 
+    @property
+    def weights(self) -> int:
+        """Weights and biases of the network (3 x 3 kernels)."""
+        c = self.channels
+        return 10 * c + (self.layers - 1) * (9 * c * c + c)
+
     def to_dict(self) -> dict:
         return {"name": ARCHITECTURE, **asdict(self), "kernel": 3, "patch": self.patch}
+
+
+def check_architecture(channels: object, layers: object, *, where: str = "architecture"
+                       ) -> Architecture:
+    """The :class:`Architecture` of ``channels`` and ``layers`` within the one limit
+    (:data:`MAX_CHANNELS`, :data:`MAX_LAYERS`, :data:`MAX_WEIGHTS`); nothing is allocated.
+
+    Raises
+    ------
+    ParameterError
+        Not integers, or out of the limit (the message names which).
+
+    Examples
+    --------
+    >>> check_architecture(64, 4).weights
+    111424
+    >>> check_architecture(1024, 5)
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.ParameterError: architecture: 1024 channels x 5 layers has 37,763,072 weights; at most 33,554,432 (use fewer channels or layers)
+    """
+    from stereoforge.errors import ParameterError
+
+    for name, value, top in (("channels", channels, MAX_CHANNELS), ("layers", layers, MAX_LAYERS)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+                or not 1 <= value <= top:
+            raise ParameterError(f"{where}: {name}: expected an integer 1..{top}, got {value!r}")
+    arch = Architecture(channels=int(channels), layers=int(layers))
+    if arch.weights > MAX_WEIGHTS:
+        raise ParameterError(f"{where}: {arch.channels} channels x {arch.layers} layers has "
+                             f"{arch.weights:,} weights; at most {MAX_WEIGHTS:,} (use fewer "
+                             "channels or layers)")
+    return arch
 
 
 class PatchNet(nn.Module):

@@ -237,7 +237,7 @@ def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, 
     if data is not None and not (folder / "third").is_dir():
         fail(FileNotFoundError(f"--data: no third/ folder under {folder}; pass the Middlebury "
                                "folder holding third/<Scene>/"))
-    result = bench_transfer(configs=[c.strip() for c in configs.split(",") if c.strip()],
+    result = bench_transfer(configs=[c.strip() for c in configs.split(",")],
                             count=count, minutes=minutes, seeds=[int(s) for s in seeds],
                             data=folder if (folder / "third").is_dir() else None, out=Path(out),
                             workers=workers, device=device, ceiling=not no_ceiling,

@@ -161,6 +161,10 @@ def validate(ctx, matcher, out, suite, against, workers, timeout, axes, real, ba
                f"estimates: {res.estimates_computed} computed, {res.estimates_reused} reused; "
                f"{res.seconds['total']:.1f} s")
     click.echo(f"results: {res.results}, differences: {out / 'differences.csv'}")
+    if baseline is not None:
+        inherited = " (the baseline's)" if not real and res.real else ""
+        click.echo(f"real scenes compared with the baseline{inherited}: "
+                   f"{', '.join(res.real) or 'none'}")
     status = 0
     if res.battery_ran:
         click.echo(f"properties: {out / 'properties.json'}, report: {out / 'report.html'}")

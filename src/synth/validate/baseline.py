@@ -1,13 +1,16 @@
 """Earlier validate runs as baselines: ``--baseline DIR`` and ``--compare A B``.
 
 A **finished** validate folder holds ``results.csv`` and ``run.json`` (:func:`run_record`,
-written after it): the matcher, the references, the suite, the axes, the real scenes, and for
+written after it; :func:`load_run` refuses a ``results.csv`` that is empty, cut short or lacks a
+row of a matcher, pair and region the run scored): the matcher, the references, the suite, the axes, the real scenes, and for
 every pair folder the SHA-256 of its ``files.json`` (which lists the size and SHA-256 of each of
 its files). Two runs compare only on identical pairs (:func:`check_same_pairs`): the same
 suite, axes and real scenes, and per pair the same digest, or files that differ by encoding
 only (the same pixels and values in other bytes, :mod:`synth.dataset.compare`). Anything else
 is refused with one :class:`~stereoforge.errors.DatasetError` naming the difference.
 
+With ``--baseline`` and no ``--real``, the run takes the baseline's real scenes (the ``--real``
+SPECs its pair folders record, :attr:`FinishedRun.real_specs`); a different set is refused.
 With ``--baseline``, pairs missing from the new folder are copied from the baseline instead
 of rendered (:func:`adopt_pairs`), and so are the estimates of every reference the baseline ran
 (:func:`adopt_estimates`: references are not matched again). The baseline's matcher enters the
@@ -16,7 +19,9 @@ comparison under the label :func:`baseline_label`.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import io
 import json
 import os
 import shutil
@@ -45,6 +50,7 @@ class FinishedRun:
     pairs: dict[str, str]
     estimates: dict[str, str]
     rows: list[dict]
+    real_specs: tuple[str, ...] = ()
 
     def rows_of(self, matcher: str, *, label: str | None = None) -> list[dict]:
         """The results rows of ``matcher``, their ``matcher`` column set to ``label``."""
@@ -64,8 +70,6 @@ def run_record(*, matcher: str, references: Sequence[str], suite: str, axes: Seq
 
 def load_run(folder: str | Path, *, what: str = "--baseline") -> FinishedRun:
     """Read a finished validate folder; :class:`DatasetError` (``what`` in front) if it is not."""
-    from synth.validate.differences import read_results
-
     folder = Path(folder)
     if not folder.is_dir():
         raise DatasetError(f"{what} {folder}: not a folder; give a folder `stereoforge "
@@ -75,7 +79,9 @@ def load_run(folder: str | Path, *, what: str = "--baseline") -> FinishedRun:
         run = FinishedRun(folder, str(doc["matcher"]), tuple(doc["references"]),
                           str(doc["suite"]), tuple(doc["axes"]), tuple(doc["real"]),
                           dict(doc["pairs"]), dict(doc["estimates"]),
-                          read_results(folder / "results.csv"))
+                          _complete_results(folder, doc, what), _real_specs(folder, doc["pairs"]))
+    except DatasetError:
+        raise
     except FileNotFoundError as exc:
         raise DatasetError(f"{what} {folder}: not a finished validate folder (no "
                            f"{Path(exc.filename).name}); run `stereoforge validate ... --out "
@@ -85,6 +91,55 @@ def load_run(folder: str | Path, *, what: str = "--baseline") -> FinishedRun:
                            f"({type(exc).__name__}: {exc}); run `stereoforge validate` into "
                            "it again") from None
     return run
+
+
+def _complete_results(folder: Path, doc: dict, what: str) -> list[dict]:
+    """The rows of ``folder/results.csv`` if it is whole: every column, every field of every
+    row, and a row for each matcher, pair and region ``run.json`` names."""
+    from matcher.regions import REGIONS
+    from synth.validate.differences import read_results
+
+    path = folder / "results.csv"
+    data = path.read_bytes()
+    where = f"{what} {folder}: results.csv"
+    fix = f"run `stereoforge validate ... --out {folder}` again to rebuild it"
+    if not data.strip():
+        raise DatasetError(f"{where} is empty; {fix}")
+    header = data.split(b"\n", 1)[0].decode("utf-8", "replace").strip().split(",")
+    lacking = [c for c in _READ_COLUMNS if c not in header]
+    if lacking:
+        raise DatasetError(f"{where} has no column {', '.join(lacking)}; {fix}")
+    if not data.endswith(b"\n"):
+        raise DatasetError(f"{where} is cut short (its last line is incomplete); {fix}")
+    for n, fields in enumerate(csv.reader(io.StringIO(data.decode("utf-8"))), start=1):
+        if len(fields) != len(header):
+            raise DatasetError(f"{where}: line {n} has {len(fields)} of {len(header)} fields; "
+                               f"{fix}")
+    rows = read_results(path)
+    if not rows:
+        raise DatasetError(f"{where} holds a header and no rows; {fix}")
+    have = {(r["matcher"], r["sample"], r["region"]) for r in rows}
+    for m in [doc["matcher"], *doc["references"]]:
+        for rel in doc["pairs"]:
+            for region in REGIONS:
+                if (m, rel, region) not in have:
+                    raise DatasetError(f"{where} has no row of {m} on {rel} ({region}) though "
+                                       f"run.json lists the pair; {fix}")
+    return rows
+
+
+#: The columns a comparison reads (results.csv holds them all: synth.validate.run.COLUMNS).
+_READ_COLUMNS = ("matcher", "axis", "value", "seed", "region", "bad_2", "error", "sample")
+
+
+def _real_specs(folder: Path, pairs: dict) -> tuple[str, ...]:
+    """The ``--real`` SPECs of a run, in order, from its real pair folders' ``sample.json``."""
+    specs: dict[str, None] = {}
+    for rel in pairs:
+        if rel.startswith("pairs/real/"):
+            record = json.loads((folder / rel / "sample.json").read_bytes())
+            specs[str(record["source"])] = None
+    return tuple(specs)
 
 
 def baseline_label(run: FinishedRun) -> str:
@@ -119,7 +174,8 @@ def check_same_pairs(base: FinishedRun, *, suite: str, axes: Sequence[str],
                            f"{suite}; compare runs of one suite")
     _same_names(where, "axes", base.axes, axes, f"pass --axes {','.join(base.axes)} to compare")
     _same_names(where, "real scenes", base.real, real,
-                "pass the --real options the baseline was run with")
+                "leave out --real to take the baseline's"
+                + (f" ({' '.join(base.real_specs)})" if base.real_specs else ""))
     for rel, digest in pairs.items():
         theirs = base.pairs.get(rel)
         if theirs is None:

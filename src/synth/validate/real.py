@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 import re
 from pathlib import Path
 from typing import Any, Sequence
@@ -145,10 +146,15 @@ def _middlebury(spec: str, rest: str) -> list[RealSpec]:
 
     path, divisor = rest, None
     head, _, tail = rest.rpartition(":")
-    if head and re.fullmatch(r"[0-9]+(\.[0-9]*)?", tail):
-        path, divisor = head, float(tail)
-        if divisor <= 0:
-            raise _bad(spec, f"DIVISOR must be > 0, got {tail}")
+    if head and not Path(rest).is_dir():  # DIR:DIVISOR
+        path = head
+        try:
+            divisor = float(tail)
+        except ValueError:
+            divisor = math.nan
+        if not (math.isfinite(divisor) and divisor > 0):
+            raise _bad(spec, f"DIVISOR must be a number > 0 (disparity = code / DIVISOR: 3 at "
+                             f"third size), got {tail!r}")
     root = Path(path)
     if not root.is_dir():
         raise _bad(spec, f"{root} is not a folder; give a Middlebury scene folder or a folder "
@@ -169,6 +175,14 @@ def _middlebury(spec: str, rest: str) -> list[RealSpec]:
     for folder in folders:
         kind = layout(folder)
         d = divisor
+        if kind == "middlebury2014" and d is not None:
+            raise _bad(spec, f"{folder} is in the 2014/MiddEval3 layout (im0.png), whose ground "
+                             f"truth is in pixels: it takes no DIVISOR; drop ':{tail}'")
+        names = ("disp0GT.pfm", "disp0.pfm") if kind == "middlebury2014" else ("disp1.png",)
+        if not any((folder / n).is_file() for n in names):
+            raise _bad(spec, f"{folder} has no ground truth: no {' or '.join(names)}"
+                             + (" (MiddEval3 or 2014 archive name)" if len(names) > 1 else "")
+                             + "; add it or give another scene")
         if kind == "middlebury2005" and d is None:
             try:
                 d = infer_middlebury_2005_divisor(folder)
@@ -182,9 +196,14 @@ def _middlebury(spec: str, rest: str) -> list[RealSpec]:
 
 def _kitti(spec: str, rest: str) -> list[RealSpec]:
     path, first, last = rest, 0, 999999
-    found = re.fullmatch(r"(.*):([0-9]+)-([0-9]+)", rest)
+    head, _, tail = rest.rpartition(":")
+    found = head and not Path(rest).is_dir()  # DIR:FIRST-LAST
     if found:
-        path, first, last = found.group(1), int(found.group(2)), int(found.group(3))
+        bounds = re.fullmatch(r"([0-9]+)-([0-9]+)", tail)
+        if bounds is None or int(bounds.group(1)) > int(bounds.group(2)):
+            raise _bad(spec, f"FIRST-LAST must be two frame numbers, FIRST <= LAST (e.g. 0-9), "
+                             f"got {tail!r}")
+        path, first, last = head, int(bounds.group(1)), int(bounds.group(2))
     root = Path(path)
     if not (root / "image_2").is_dir():
         raise _bad(spec, f"{root} is not a KITTI 2015 training folder (no image_2/); give "

@@ -107,8 +107,12 @@ def _summary(rows: list[dict], matcher: str, others: Sequence[str],
             continue
         note = ""
         if baseline is not None and other == baseline[0]:
+            scenes = list(dict.fromkeys(r["scene"] for r in rows
+                                        if r["axis"] == _REAL and r["matcher"] == other))
+            real = (f" Real scenes compared: {html.escape(', '.join(scenes))}." if scenes
+                    else " No real scene.")
             note = (f"<p>The baseline: the matcher of the finished run "
-                    f"<code>{html.escape(str(baseline[1]))}</code>, on the same pairs.</p>")
+                    f"<code>{html.escape(str(baseline[1]))}</code>, on the same pairs.{real}</p>")
         out += _comparison(table, other, note)
     return out
 

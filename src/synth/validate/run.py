@@ -71,6 +71,8 @@ class ValidateResult:
         The baseline's label in ``differences`` (``baseline <matcher>``), if one was given.
     pairs_copied : int
         Pairs copied from the baseline instead of rendered (counted in ``pairs_reused``).
+    real : tuple of str
+        The real scenes scored (those of the baseline when ``real`` was not given).
     """
 
     out: Path
@@ -85,6 +87,7 @@ class ValidateResult:
     differences: tuple[dict, ...] = ()
     baseline: str | None = None
     pairs_copied: int = 0
+    real: tuple[str, ...] = ()
 
     def regressions(self, points: float = 1.0) -> list[dict]:
         """The axis x region rows worse than the baseline by more than ``points`` bad-2 points
@@ -282,7 +285,8 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     battery : bool
         Run the property battery and write the report (off: pairs, estimates and results only).
     real : sequence of str
-        ``--real`` SPECs (:mod:`synth.validate.real`): real scenes scored beside the axes.
+        ``--real`` SPECs (:mod:`synth.validate.real`): real scenes scored beside the axes. With a
+        ``baseline`` and none given, the baseline's.
     baseline : str or Path, optional
         A finished validate folder (:mod:`synth.validate.baseline`) whose matcher this one is
         compared with, on identical pairs; its pairs and its references' estimates are reused.
@@ -311,9 +315,11 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
         clock.append(now)
 
     axis_names = list(AXES) if axes is None else list(axes)
+    base = None if baseline is None else load_run(baseline)
+    if base is not None and not real:  # the baseline's real scenes, as its pairs are taken
+        real = base.real_specs
     reals = resolve_real(real)
     specs = [*plan(suite, axis_names), *reals]
-    base = None if baseline is None else load_run(baseline)
     if base is not None:
         check_same_pairs(base, suite=suite, axes=axis_names, real=[r.scene for r in reals],
                          pairs={}, folder=Path(out))
@@ -372,4 +378,4 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
                           estimates_reused=reused, failed_properties=failed,
                           battery_ran=battery, seconds=seconds, differences=tuple(table),
                           baseline=None if base is None else baseline_label(base),
-                          pairs_copied=copied)
+                          pairs_copied=copied, real=tuple(r.scene for r in reals))

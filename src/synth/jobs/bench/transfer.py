@@ -130,6 +130,37 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
     return {"model": str(model), "wall_s": round(wall, 1), "reused": False}
 
 
+def _config_name(config: str) -> str:
+    return Path(config).stem if os.sep in str(config) or str(config).endswith(".toml") \
+        else str(config)
+
+
+def _check_arguments(configs: Sequence[str], *, count: int, minutes: float, seeds: Sequence[int],
+                     workers: int, device: str) -> str:
+    """Refuse bad arguments before any work; the device name."""
+    from matcher.learned.device import check_device
+    from stereoforge.errors import ParameterError
+    from stereoforge.validation import check_int, check_real
+    from synth.jobs.train.checks import MAX_MINUTES
+
+    names = [_config_name(c) for c in configs]
+    if not names or not all(str(c).strip() for c in configs):
+        raise ParameterError(f"--configs: expected dataset configs separated by commas (example "
+                             f"names or TOML paths), got {','.join(map(str, configs))!r}")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ParameterError(f"--configs: {', '.join(twice)} comes twice (one folder pairs/<name> "
+                             "per config); give each config once")
+    check_int(count, "--count", lo=1, hi=10**6)
+    check_real(minutes, "--minutes", lo=0, lo_open=True, hi=MAX_MINUTES)
+    if not seeds:
+        raise ParameterError("--seeds: give at least one seed")
+    for seed in seeds:
+        check_int(seed, "--seeds", lo=0, hi=2**63 - 1)
+    check_int(workers, "--workers", lo=1, hi=256)
+    return check_device(device, "--device")
+
+
 def _summary(rows: list[dict], methods: list[str]) -> list[dict]:
     out = []
     for method in methods:
@@ -212,7 +243,10 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                    log: Callable[[str], None] | None = None) -> TransferResult:
     """Train on each config (and the real scenes, leave-one-out), score on the real scenes;
     ``aggregate``: None, each model's box chosen on pairs it did not train on, or one box side
-    for every learned model (see the module docstring)."""
+    for every learned model (see the module docstring).
+
+    Every argument is checked before anything is rendered or trained (:class:`ParameterError`).
+    """
     from matcher.adapters import resolve_matcher
     from matcher.learned.device import resolve_device
     from synth.dataset import load_config, run_dataset
@@ -220,7 +254,8 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     say = log or (lambda _m: None)
     if importlib.util.find_spec("torch") is None:  # before hours of rendering, not after
         raise ModuleNotFoundError("No module named 'torch'", name="torch")
-    device = resolve_device(device, "--device")
+    device = resolve_device(_check_arguments(configs, count=count, minutes=minutes, seeds=seeds,
+                                             workers=workers, device=device), "--device")
     for config in configs:  # a bad config fails before anything is made or trained
         load_config(config)
     specs = _real_specs(data)
@@ -230,8 +265,7 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     models: list[dict] = []
     names = []
     for config in configs:
-        name = Path(config).stem if os.sep in str(config) or str(config).endswith(".toml") \
-            else str(config)
+        name = _config_name(config)
         names.append(name)
         folder = out / "pairs" / name
         say(f"{count} pairs of {config} ...")
@@ -265,10 +299,11 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
 
     for info in models:
         model = load_model(info["model"])
-        training = model.header["training"]
-        info.update(steps=training["steps"], patches=training["patches"],
-                    train_s=training["seconds"], train_loss=training["train_loss"],
-                    val_loss=training["val_loss"])
+        training = model.header.get("training")
+        training = training if isinstance(training, dict) else {}  # a model from elsewhere
+        info.update(steps=training.get("steps"), patches=training.get("patches"),
+                    train_s=training.get("seconds"), train_loss=training.get("train_loss"),
+                    val_loss=training.get("val_loss"))
         if aggregate is not None:
             agg = aggregate
         elif info["validated_on"] and info["trained_on"] == _REAL:

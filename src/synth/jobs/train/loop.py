@@ -15,6 +15,14 @@ readers of :mod:`matcher.io`), Adam on the hinge loss of :mod:`matcher.learned.l
   budget; a ``minutes`` budget stops where the clock says);
 - at the end, the box aggregation the model uses by default chosen on the validation pairs
   (smallest bad-3 among :data:`AGGREGATES`), then the model file, atomically.
+
+Every option is checked before any work (ranges, the device, the architecture's one limit of
+:func:`matcher.learned.network.check_architecture`, the crop and the network's halo against the
+smallest image). A failure in a ``DataLoader`` worker (a corrupt sample) comes back to this
+process as a value and ends the run with one error naming the sample and its file; the workers
+stop, and the last checkpoint stays as it was. Memory that cannot be had ends it with
+:class:`TrainOutOfMemory` (how much, and for what). A run that learned nothing (no step, or no
+patch in any crop) writes no model.
 """
 
 from __future__ import annotations
@@ -46,11 +54,15 @@ from matcher.learned import (
 )
 from matcher.learned.model import LearnedModel
 from stereoforge.errors import DatasetError, ParameterError, StereoforgeError
-from synth.jobs.train.patches import CROP, CROPS, Crop, PatchBatches
+from synth.jobs.train.checks import (TrainOutOfMemory, check_learned, check_options, check_sizes,
+                                     out_of_memory)
+from synth.jobs.train.patches import (CROP, CROPS, Crop, Failed, GuardedBatches, LoaderFailure,
+                                      PatchBatches)
 from synth.jobs.train.sources import TrainPair, TrainSource, open_sources
 
 __all__ = ["AGGREGATES", "CSV_COLUMNS", "GPU_CROPS", "ROW_STEPS", "TrainConfig",
-           "TrainInterrupted", "TrainResult", "aggregate_bad3", "default_crops", "train"]
+           "TrainInterrupted", "TrainOutOfMemory", "TrainResult", "aggregate_bad3",
+           "default_crops", "train"]
 
 #: Steps per CSV row (and per validation loss).
 ROW_STEPS = 100
@@ -68,8 +80,6 @@ _PAD_WIDTH = 64
 CSV_COLUMNS = ("step_from", "step_to", "seconds", "train_loss", "val_loss", "patches",
                "patches_per_s", "lr")
 _CKPT_FORMAT = "stereoforge-train-checkpoint"
-
-
 class TrainInterrupted(StereoforgeError):
     """Ctrl-C or SIGTERM: the checkpoint is written; ``--resume`` continues."""
 
@@ -199,21 +209,8 @@ def _loader(batches: PatchBatches, start: int, stop: int, workers: int):
         # running) can deadlock in the child, as cv2.setNumThreads did in a forked worker
         kwargs = {"num_workers": workers, "worker_init_fn": _worker_init, "prefetch_factor": 4,
                   "multiprocessing_context": "spawn", "persistent_workers": False}
-    return DataLoader(batches, batch_size=None, sampler=range(start, stop),
+    return DataLoader(GuardedBatches(batches), batch_size=None, sampler=range(start, stop),
                       collate_fn=_identity_collate, **kwargs)
-
-
-def _check_config(cfg: TrainConfig) -> None:
-    if (cfg.minutes is None) == (cfg.steps is None):
-        raise ParameterError("train: give exactly one budget, --minutes M or --steps N")
-    if cfg.minutes is not None and not (isinstance(cfg.minutes, (int, float)) and cfg.minutes > 0):
-        raise ParameterError(f"--minutes: expected a number > 0, got {cfg.minutes!r}")
-    if cfg.steps is not None and not (isinstance(cfg.steps, int) and cfg.steps > 0):
-        raise ParameterError(f"--steps: expected an integer > 0, got {cfg.steps!r}")
-    if not str(cfg.out).endswith(".pt"):
-        raise ParameterError(f"--out: expected a .pt model file, got {cfg.out!r}")
-    if cfg.channels < 1 or cfg.layers < 1 or cfg.crops < 1 or cfg.crop < 4:
-        raise ParameterError("train: channels, layers and crops must be >= 1, crop >= 4")
 
 
 def _paths(out: str) -> tuple[Path, Path, Path]:
@@ -366,7 +363,8 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
     """
     start_clock = time.monotonic()
     say = log or (lambda _m: None)
-    _check_config(cfg)
+    device = check_options(cfg, device=device, workers=workers, threads=threads,
+                           checkpoint_minutes=checkpoint_minutes, row_steps=row_steps)
     model_path, csv_path, ckpt_path = _paths(cfg.out)
     if not model_path.parent.is_dir():
         raise FileNotFoundError(f"--out: the folder {model_path.parent} does not exist; create it")
@@ -376,10 +374,18 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
                 hint = "add --resume to continue it" if p == ckpt_path else "choose another --out"
                 raise DatasetError(f"{p} exists; {hint}, or --overwrite to start afresh")
     with claim_output(model_path, (model_path, csv_path, ckpt_path), say):
-        return _train_claimed(cfg, start_clock, say, device=device, resume=resume,
-                              workers=workers, threads=threads,
-                              checkpoint_minutes=checkpoint_minutes, show_progress=show_progress,
-                              row_steps=row_steps, one_pass=one_pass)
+        failure = None
+        try:
+            return _train_claimed(cfg, start_clock, say, device=device, resume=resume,
+                                  workers=workers, threads=threads,
+                                  checkpoint_minutes=checkpoint_minutes,
+                                  show_progress=show_progress, row_steps=row_steps,
+                                  one_pass=one_pass)
+        except (MemoryError, RuntimeError) as exc:
+            failure = out_of_memory(exc, cfg, device)
+            if failure is None:
+                raise
+        raise failure
 
 
 def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], None], *,
@@ -392,6 +398,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
     one_pass = dev.type != "cpu" if one_pass is None else bool(one_pass)
     step_loss = _one_pass_loss if one_pass else _batch_loss
     sources = open_sources(cfg.sources, val_fraction=cfg.val_fraction)
+    check_sizes(cfg, sources)
     blob = _load_checkpoint(ckpt_path, cfg, sources) if resume else None
     if blob is not None and blob.get("finished") and model_path.is_file():
         raise DatasetError(f"--resume: {model_path} is finished ({blob['state']['step']} steps); "
@@ -462,7 +469,16 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
             for group in opt.param_groups:
                 group["lr"] = lr
             t0 = time.monotonic()
-            batch = next(loader)
+            failure = None
+            try:
+                batch = next(loader)
+            except Exception as exc:  # noqa: BLE001 - the loader's own (a worker killed, ...)
+                failure = LoaderFailure(f"the data loader failed at step {state.step}: "
+                                         f"{' '.join(str(exc).split())[:300]}")
+            if failure is not None:  # raised here, outside the handler: no traceback keeps
+                raise failure        # the loader (and its workers) alive
+            if isinstance(batch, Failed):
+                raise batch.error
             loss, n = step_loss(net, batch, dev)
             if loss is not None:
                 opt.zero_grad(set_to_none=True)
@@ -521,6 +537,7 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
                            "patches_per_s": round(state.row_patches / max(state.row_seconds, 1e-9), 1),
                            "lr": opt.param_groups[0]["lr"]})
         state.row_loss, state.row_count, state.row_patches, state.row_seconds = 0.0, 0, 0, 0.0
+    check_learned(cfg, steps=state.step, patches=state.patches, start_clock=start_clock)
     net.eval()
     model = LearnedModel(net=net, header={})
     aggregate, bads = _choose_aggregate(model, sources, dev)

@@ -23,15 +23,18 @@ used out first), so after the first epoch a batch costs no decoding.
 from __future__ import annotations
 
 import math
+import pickle
 from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
 from matcher.learned.loss import NEGATIVE_OFFSETS, POSITIVE_OFFSET
+from stereoforge.errors import StereoforgeError
 from synth.jobs.train.sources import TrainPair, TrainSource
 
-__all__ = ["CROP", "CROPS", "MIN_VISIBLE", "Crop", "PatchBatches"]
+__all__ = ["CROP", "CROPS", "MIN_VISIBLE", "Crop", "Failed", "GuardedBatches", "LoaderFailure",
+           "PatchBatches"]
 
 #: Side of a crop's block of left pixels.
 CROP = 32
@@ -158,3 +161,39 @@ class PatchBatches:
             right=pair.right[y0 - r:y0 + size + r, c0 - r:c1 + 1 + r],
             ys=ys.astype(np.int64), xs=xs.astype(np.int64),
             x_pos=(x_pos - c0).astype(np.float32), x_neg=(x_neg - c0).astype(np.float32))
+
+
+class LoaderFailure(StereoforgeError, RuntimeError):
+    """The data loader failed in a way that is not a sample's (a worker killed, an exception that
+    cannot cross processes)."""
+
+
+@dataclass(frozen=True)
+class Failed:
+    """What a ``DataLoader`` worker returns instead of raising. An exception raised in a worker
+    is raised again by torch in the trainer with the loader's iterator in its traceback, which
+    keeps the workers alive and the interpreter waiting for them at exit: the run never ends."""
+
+    error: BaseException
+
+
+class GuardedBatches:
+    """:class:`PatchBatches` whose failures are returned as :class:`Failed` values, for the
+    trainer to raise (a map-style dataset, like the batches it wraps)."""
+
+    def __init__(self, batches: PatchBatches) -> None:
+        self.batches = batches
+
+    def __len__(self) -> int:
+        return len(self.batches)
+
+    def __getitem__(self, k: int) -> list[Crop] | Failed:
+        try:
+            return self.batches[k]
+        except Exception as exc:  # noqa: BLE001 - travels to the trainer, raised there
+            exc.__traceback__, exc.__context__, exc.__cause__ = None, None, None
+            try:
+                pickle.loads(pickle.dumps(exc))
+            except Exception:  # noqa: BLE001 - an exception that does not cross processes
+                exc = LoaderFailure(f"step {k}: {type(exc).__name__}: {' '.join(str(exc).split())}")
+            return Failed(exc)

@@ -87,14 +87,36 @@ class TrainSource:
     n_train: int
     n_val: int
     _splits: dict = field(default_factory=dict, repr=False)
+    #: The smallest image side, (height, width), over every pair (None: not known).
+    smallest: tuple[int, int] | None = None
 
     def load(self, split: str, item: int) -> TrainPair:
-        """Pair ``item`` (``0 .. n_train - 1`` or ``0 .. n_val - 1``) of ``split``."""
+        """Pair ``item`` (``0 .. n_train - 1`` or ``0 .. n_val - 1``) of ``split``.
+
+        Raises
+        ------
+        DatasetError
+            A file of the sample is missing, truncated or corrupt: the message names the
+            sample and the file.
+        """
         data = self._splits[split]
         if isinstance(data, list):
             return data[item]
-        s = data.sample(item)  # read back by its layout, with its occlusion mask
+        try:
+            s = data.sample(item)  # read back by its layout, with its occlusion mask
+        except (ValueError, FileNotFoundError) as exc:  # FormatError, DatasetError, a lost file
+            text = " ".join(str(exc).split())
+            raise DatasetError(f"training data {self.spec}: {self.describe(split, item)}: {text}; "
+                               f"check it with `stereoforge dataset --verify {self.spec}` and "
+                               "render it again") from None
         return _pair(s.left, s.right, s.disp_left, s.mask_left)
+
+    def describe(self, split: str, item: int) -> str:
+        """``sample 3`` (a dataset's sample index) or ``scene 2`` of a real source."""
+        data = self._splits[split]
+        if isinstance(data, list):
+            return f"scene {item}"
+        return f"sample {data.indices[item]} ({split} item {item})"
 
     def header(self) -> dict:
         return {"spec": self.spec, "name": self.name, "hash": self.hash, "kind": self.kind,
@@ -117,8 +139,11 @@ def _dataset(spec: str, root: Path, val_fraction: float) -> TrainSource:
     if not splits["train"]:
         raise DatasetError(f"{root}: all {len(everything)} samples are in the validation split "
                            f"(val_fraction {val_fraction}); render more samples")
+    rig = header.get("config", {}).get("rig", {}) if isinstance(header.get("config"), dict) else {}
+    size = (rig.get("height"), rig.get("width")) if isinstance(rig, dict) else (None, None)
+    smallest = size if all(isinstance(v, int) for v in size) else None
     return TrainSource(spec, str(header.get("name", root.name)), str(header.get("config_hash", "")),
-                       "dataset", len(splits["train"]), len(splits["val"]), splits)
+                       "dataset", len(splits["train"]), len(splits["val"]), splits, smallest)
 
 
 def _real(spec: str) -> TrainSource:
@@ -136,8 +161,9 @@ def _real(spec: str) -> TrainSource:
                                "ground-truth disparities")
         digest.update(scene.fingerprint.encode())
         pairs.append(_pair(left, right, gt, mask))
+    smallest = (min(p.left.shape[0] for p in pairs), min(p.left.shape[1] for p in pairs))
     return TrainSource(spec, spec, digest.hexdigest(), spec.partition(":")[0], len(pairs), 0,
-                       {"train": pairs, "val": []})
+                       {"train": pairs, "val": []}, smallest)
 
 
 _IMAGES_ONLY = ("im0.png", "view1.png", "image_2", "training/image_2")
