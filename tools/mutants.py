@@ -134,8 +134,8 @@ MUTANTS += (
     Mutant(
         "record forgets the KITTI images",
         "src/synth/dataset/storage/commit.py",
-        (('for path in sorted(p for p in tmp.rglob("*") if p.is_file()):',
-          'for path in sorted(p for p in tmp.glob("*") if p.is_file()):'),),
+        (('for path in sorted(p for p in tmp.rglob("*") if p.is_file())]',
+          'for path in sorted(p for p in tmp.glob("*") if p.is_file())]'),),
         "the completion record lists the sample folder only, not training/image_2/ ... of KITTI",
         _DATASET,
     ),
@@ -178,14 +178,14 @@ MUTANTS += (
     ),
     Mutant(
         "calib vmax floored",
-        "src/synth/write/export.py",
+        "src/synth/formats/middlebury.py",
         (("vmax = int(math.ceil(hi))", "vmax = int(math.floor(hi))"),),
         "calib.txt vmax below the largest disparity",
         _CALIB,
     ),
     Mutant(
         "calib ndisp without the + 1",
-        "src/synth/write/export.py",
+        "src/synth/formats/middlebury.py",
         (("ndisp = int(16 * math.ceil((vmax + 1) / 16))", "ndisp = int(16 * math.ceil(vmax / 16))"),),
         "ndisp = vmax when vmax is a multiple of 16 (the search misses d = vmax)",
         _CALIB,
@@ -230,8 +230,8 @@ MUTANTS += (
     Mutant(
         "gain applied after the bias",
         "src/synth/appearance/photometric.py",
-        (("return cv2.addWeighted(img, gain, noise, 1.0, bias, dtype=cv2.CV_8U)",
-          "return cv2.addWeighted(img, gain, noise, 1.0, bias * gain, dtype=cv2.CV_8U)"),),
+        (("    v = np.rint(_fma32(x, gain, noise + bias))",
+          "    v = np.rint(_fma32(x, gain, noise + bias * gain))"),),
         "with noise, the right image is (x + bias) * gain instead of x * gain + bias",
         _PHOTOMETRIC,
     ),
@@ -352,7 +352,7 @@ MUTANTS += (
     ),
     Mutant(
         "KITTI obj_map marks pixels without ground truth",
-        "src/synth/write/export.py",
+        "src/synth/formats/kitti.py",
         (("background = ~np.isfinite(disp)", "background = np.zeros(disp.shape, bool)"),),
         "obj_map is 1 (foreground) where there is no ground truth instead of KITTI's 0",
         _EXPORT,
@@ -360,7 +360,7 @@ MUTANTS += (
     Mutant(
         "StereoDataset occlusion includes pixels without ground truth",
         "src/synth/dataset/loader.py",
-        (('"occlusion": mask == 128,', '"occlusion": mask != 255,'),),
+        (('"occlusion": s.mask_left == 128,', '"occlusion": s.mask_left != 255,'),),
         "item['occlusion'] is every pixel not visible in both views, mask 0 included",
         ("tests/synth/test_loader.py",),
     ),

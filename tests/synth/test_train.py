@@ -414,7 +414,7 @@ def _no_gpu_device() -> str:
     ({"crop": 300}, "--crop 300 with --layers 4 needs images of at least 308x308 pixels"),
     ({"crop": 90, "layers": 4}, "the smallest of"),
     ({"device": "foo"}, "--device: expected auto, cpu, cuda or cuda:N, got 'foo'"),
-    ({"device": _no_gpu_device()}, "--device '"),
+    ({"device": _no_gpu_device()}, "--device: '"),
     ({"workers": -1}, "--workers: expected an integer in [0, 256]"),
     ({"checkpoint_minutes": float("nan")}, "--checkpoint-minutes: expected a finite number"),
 ])
@@ -503,7 +503,7 @@ def test_memory_that_cannot_be_had_is_an_environment_error(data, tmp_path):
     ({"configs": ["", "", ""]}, "got ',,'"),
     ({"configs": ["flying", "flying"]}, "--configs: flying comes twice"),
     ({"device": "foo"}, "--device: expected auto, cpu, cuda or cuda:N, got 'foo'"),
-    ({"device": _no_gpu_device()}, "--device '"),
+    ({"device": _no_gpu_device()}, "--device: '"),
     ({"minutes": float("inf")}, "--minutes: expected a finite number"),
     ({"seeds": []}, "--seeds: give at least one seed"),
 ])
