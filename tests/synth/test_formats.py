@@ -73,6 +73,8 @@ def datasets(tmp_path_factory, require_or_skip):
 def test_every_format_is_one_registered_layout():
     assert set(DATASET_FORMATS) == {"middlebury", "middlebury2014", "kitti", "webdataset", *NEW}
     assert set(FORMATS) == set(DATASET_FORMATS) - {"webdataset"}
+    # the registry's static list (read by the CLI without the layouts) is what they say
+    assert list(FORMATS) == [n for n in DATASET_FORMATS if get_layout(n).capacity.sample_folders]
     for layout in layouts():
         assert get_layout(layout.name) is layout
         assert layout.tools_root and layout.sample_parent and layout.title

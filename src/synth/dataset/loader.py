@@ -25,7 +25,7 @@ from stereoforge.validation import check_choice, check_real
 from synth._util.json_records import read_json_object
 from synth.dataset.storage.layout import check_layout, sample_dir
 from synth.dataset.storage.manifest import MODIFIED_FIX, read_manifest
-from synth.formats import DATASET_FORMATS, get_layout
+from synth.formats import DATASET_FORMATS, FORMATS, get_layout
 
 __all__ = ["StereoDataset", "SPLITS", "is_validation"]
 
@@ -152,9 +152,8 @@ class StereoDataset:
                                f"reads {', '.join(DATASET_FORMATS)} datasets")
         self.layout = get_layout(self.format)
         if not self.layout.capacity.sample_folders:
-            folders = [n for n in DATASET_FORMATS if get_layout(n).capacity.sample_folders]
             raise DatasetError(f"{header_path}: format {self.format!r} has no sample folders; "
-                               f"StereoDataset reads the {', '.join(folders)} formats (read "
+                               f"StereoDataset reads the {', '.join(FORMATS)} formats (read "
                                f"{self.format} shards with webdataset.WebDataset)")
         self.split, self.val_fraction = split, float(val_fraction)
         self._seeds: dict[int, int] = {}

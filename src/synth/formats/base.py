@@ -143,8 +143,9 @@ class Layout:
         """Refuse a rig whose disparities the files cannot hold, before anything is rendered.
 
         A rendered point lies between the rig's ``near`` and ``far`` planes, so its disparity
-        lies in ``[fx B / far, fx B / near]``. Above :attr:`Capacity.disp_max`, or below half a
-        quantum (it would be stored as "no ground truth"), is refused: never clipped in silence.
+        lies in ``[fx B / far, fx B / near]``. Above :attr:`Capacity.disp_max`, or at most half a
+        quantum (it would round to code 0, "no ground truth", as the encoders refuse), is
+        refused: never clipped in silence.
         """
         cap = self.capacity
         if cap.disp_max is None and cap.disp_quantum is None:
@@ -158,7 +159,7 @@ class Layout:
                 f"{largest:.4g} px; set [rig] near >= {fb / cap.disp_max:.4g} (m), a smaller "
                 "baseline or focal length, or a layout with float disparities (--format "
                 "sceneflow or middlebury)")
-        if cap.disp_quantum is not None and smallest < cap.disp_quantum / 2:
+        if cap.disp_quantum is not None and smallest <= cap.disp_quantum / 2:
             raise ParameterError(
                 f"{source}: --format {self.name} stores disparities in steps of "
                 f"{cap.disp_quantum:g} px, but this rig makes disparities down to "

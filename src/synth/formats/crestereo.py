@@ -23,10 +23,10 @@ from pathlib import Path
 from typing import Any
 
 from matcher.io import (CRESTEREO_MAX, CRESTEREO_SCALE, StereoSample,
-                        encode_crestereo_disparity, encode_jpeg, format_calib, read_image,
+                        encode_crestereo_disparity, encode_jpeg, read_image,
                         read_crestereo_disparity)
 from synth.formats.base import JPEG_QUALITY, Capacity, Layout, write_tree
-from synth.formats.middlebury import calib_for
+from synth.formats.middlebury import calib_txt
 
 __all__ = ["CREStereoLayout", "LAYOUT", "SUBSETS"]
 
@@ -58,7 +58,7 @@ class CREStereoLayout(Layout):
                 encode_crestereo_disparity(pair.disp_left),
                 encode_crestereo_disparity(pair.disp_right))
         files = {f"{stem}{suffix}": d for suffix, d in zip(_SUFFIXES, data)}
-        files["calib.txt"] = format_calib(calib_for(pair)).encode("ascii")
+        files["calib.txt"] = calib_txt(pair)
         return write_tree(dest, files, fsync=fsync)
 
     def read_key(self, root: Path, key: str) -> StereoSample:

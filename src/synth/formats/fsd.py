@@ -22,9 +22,9 @@ from pathlib import Path
 from typing import Any
 
 from matcher.io import (FSD_MAX, FSD_SCALE, StereoSample, encode_fsd_disparity,
-                        encode_jpeg, format_calib, read_fsd_disparity, read_image)
+                        encode_jpeg, read_fsd_disparity, read_image)
 from synth.formats.base import JPEG_QUALITY, Capacity, Layout, swap_folder, write_tree
-from synth.formats.middlebury import calib_for
+from synth.formats.middlebury import calib_txt
 
 __all__ = ["FSDLayout", "LAYOUT", "FRAMES_PER_SCENE"]
 
@@ -56,7 +56,7 @@ class FSDLayout(Layout):
                  swap_folder(left, "left", "right"): encode_jpeg(pair.right, quality=JPEG_QUALITY),
                  swap_folder(left, "rgb", "disparity").removesuffix(".jpg") + ".png":
                      encode_fsd_disparity(pair.disp_left),
-                 "calib.txt": format_calib(calib_for(pair)).encode("ascii")}
+                 "calib.txt": calib_txt(pair)}
         return write_tree(dest, files, fsync=fsync)
 
     def read_key(self, root: Path, key: str) -> StereoSample:

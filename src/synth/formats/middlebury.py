@@ -20,11 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from matcher.io import (StereoSample, atomic_write_bytes, encode_flo, load_middlebury_2014,
-                        read_flo, write_middlebury)
+from matcher.io import (StereoSample, atomic_write_bytes, encode_flo, format_calib,
+                        load_middlebury_2014, read_flo, write_middlebury)
 from synth.formats.base import Capacity, Layout
 
-__all__ = ["MiddleburyLayout", "LAYOUT", "calib_for"]
+__all__ = ["MiddleburyLayout", "LAYOUT", "calib_for", "calib_txt"]
 
 #: RAFT-Stereo's list of the Middlebury scenes to load, inside the MiddEval3 root.
 SCENE_LIST = "official_train.txt"
@@ -47,6 +47,12 @@ def calib_for(pair: Any) -> dict:
     vmax = int(math.ceil(hi))
     ndisp = int(16 * math.ceil((vmax + 1) / 16))
     return pair.rig.middlebury_calib(ndisp=ndisp, vmin=vmin, vmax=vmax)
+
+
+def calib_txt(pair: Any) -> bytes:
+    """The bytes of ``calib.txt`` of a rendered pair (:func:`calib_for`): the calibration
+    sidecar of the layouts that have no place of their own for it."""
+    return format_calib(calib_for(pair)).encode("ascii")
 
 
 def _scene_folders(root: Path) -> list[Path]:

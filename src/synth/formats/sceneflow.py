@@ -37,10 +37,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from matcher.io import (StereoSample, encode_pfm, encode_png, format_calib,
+from matcher.io import (StereoSample, encode_pfm, encode_png,
                         read_image, read_pfm)
 from synth.formats.base import Capacity, Layout, swap_folder, write_tree
-from synth.formats.middlebury import calib_for
+from synth.formats.middlebury import calib_txt
 
 __all__ = ["SceneFlowLayout", "LAYOUT", "place", "TEST_PER_BLOCK", "BLOCK", "PASSES"]
 
@@ -99,7 +99,7 @@ class SceneFlowLayout(Layout):
                 files[f"{_THINGS}/{_relative(kind, index, view)}"] = encode_png(image)
         for view, disp in (("left", pair.disp_left), ("right", pair.disp_right)):
             files[f"{_THINGS}/{_relative('disparity', index, view)}"] = encode_pfm(disp)
-        files["calib.txt"] = format_calib(calib_for(pair)).encode("ascii")
+        files["calib.txt"] = calib_txt(pair)
         return write_tree(dest, files, fsync=fsync)
 
     def finish_files(self, names: list[str]) -> dict[str, bytes]:

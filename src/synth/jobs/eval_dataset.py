@@ -86,7 +86,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     from matcher.io import atomic_write_bytes, read_image, write_pfm
     from matcher.regions import REGIONS, region_scores
     from synth.dataset.storage.layout import dataset_format
-    from synth.formats import DATASET_FORMATS, get_layout
+    from synth.formats import FORMATS, get_layout
 
     folder = Path(folder)
     m = resolve_matcher(matcher, timeout=timeout)  # a bad string fails first, touching nothing
@@ -95,10 +95,9 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
         # a dataset names its layout; a study's pairs are MiddEval3 folders
         fmt = dataset_format(root) if (root / "dataset.json").is_file() else "middlebury"
         if not get_layout(fmt).capacity.sample_folders:
-            folders = [n for n in DATASET_FORMATS if get_layout(n).capacity.sample_folders]
             raise DatasetError(f"{root} is a {fmt} dataset (samples packed in tar shards); "
                                "eval-dataset reads sample folders: write the dataset with "
-                               f"--format {', '.join(folders)}")
+                               f"--format {', '.join(FORMATS)}")
     except BaseException:
         m.close()
         raise
