@@ -85,7 +85,7 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
     rig = StereoRig.default(width, height, fx=fx, baseline=baseline)
     from synth.formats import get_layout
 
-    get_layout(fmt).check_rig(rig, source=f"--format {fmt}")  # before anything is rendered
+    get_layout(fmt).check_rig(rig, source="stereoforge render")  # before anything is rendered
     lighting = None
     if relight is not None:
         import dataclasses
