@@ -160,6 +160,8 @@ CASES = [
      ["--workers"]),
     ("bench transfer: bad seeds", ["bench", "transfer", "--seeds", "1,x", "--out", "o"], 2,
      ["--seeds", "'1,x'"]),
+    ("bench transfer: two budgets", ["bench", "transfer", "--minutes", "1", "--steps", "5",
+                                     "--out", "o"], 2, ["--minutes and --steps", "give one"]),
     ("bench transfer: unknown config", ["bench", "transfer", "--configs", "nowhere", "--out",
                                         "o"], 2, ["nowhere", "one of the examples"]),
     ("train: a folder without ground truth", ["train", "a-folder", "--out", "m.pt", "--steps",

@@ -293,6 +293,13 @@ def test_bench_transfer_trains_scores_and_draws(tmp_path):
     again = _cli(["bench", "transfer", "--configs", str(config), "--count", "4", "--minutes",
                   "0.3", "--no-ceiling", "--out", str(out)], env=env)
     assert again.returncode == 0 and "tiny-seed0.pt: reused" in again.stderr, again.stderr
+    # a step budget is another budget: the model is trained again, with exactly that many steps
+    steps = _cli(["bench", "transfer", "--configs", str(config), "--count", "4", "--steps", "3",
+                  "--no-ceiling", "--out", str(out)], env=env)
+    assert steps.returncode == 0 and "reused" not in steps.stderr, steps.stderr
+    (model,) = _rows(out / "transfer-models.csv")
+    assert int(model["steps"]) == 3
+    assert (out / "models" / "tiny-seed0.pt.budget").read_text() == "--steps 3\n"
 
 
 def test_one_pass_step_equals_the_crop_by_crop_step(data):
@@ -506,6 +513,7 @@ def test_memory_that_cannot_be_had_is_an_environment_error(data, tmp_path):
     ({"device": _no_gpu_device()}, "--device: '"),
     ({"minutes": float("inf")}, "--minutes: expected a finite number"),
     ({"seeds": []}, "--seeds: give at least one seed"),
+    ({"steps": 0}, "--steps: expected an integer in [1, 1000000000], got 0"),
 ])
 def test_bench_transfer_refuses_bad_arguments_before_rendering(tmp_path, option, words):
     from synth.jobs.bench.transfer import bench_transfer

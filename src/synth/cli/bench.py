@@ -205,8 +205,12 @@ def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, back
               help="Comma-separated dataset configs (example names or TOML paths) to train on.")
 @click.option("--count", default=200, show_default=True, type=click.IntRange(min=1),
               help="Pairs rendered per config.")
-@click.option("--minutes", default=10.0, show_default=True, type=click.FloatRange(min=0.05),
-              help="Training budget of every model (wall time, data loading included).")
+@click.option("--minutes", default=None, type=click.FloatRange(min=0.05),
+              help="Training budget of every model (wall time, data loading included; "
+                   "default 10 unless --steps).")
+@click.option("--steps", default=None, type=click.IntRange(min=1),
+              help="Training budget of every model in steps instead of --minutes: the same "
+                   "work for every model however busy the machine is.")
 @click.option("--seeds", "seeds_text", default="0", show_default=True,
               help="Comma-separated seeds: one model per config and seed.")
 @click.option("--data", default=None,
@@ -221,7 +225,7 @@ def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, back
               help="Score every learned model with this box side (1: none). Default: each "
                    "chooses its box on pairs it did not train on (the real-scene models on a "
                    "validation scene).")
-def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, device,
+def bench_transfer_cmd(out, configs, count, minutes, steps, seeds_text, data, workers, device,
                        no_ceiling, aggregate) -> None:
     """Train the reference network on each config, score it on real scenes beside CT and SGBM."""
     import os
@@ -233,12 +237,16 @@ def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, 
     seeds = [s.strip() for s in seeds_text.split(",") if s.strip()]
     if not seeds or not all(s.isdigit() for s in seeds):
         fail(ValueError(f"--seeds must be integers >= 0 separated by commas, got {seeds_text!r}"))
+    if minutes is not None and steps is not None:
+        fail(ValueError("--minutes and --steps are two budgets for the same training; give one"))
+    minutes = 10.0 if minutes is None else minutes
     folder = Path(data or os.environ.get("STEREOFORGE_MIDDLEBURY") or "../shared/data/middlebury")
     if data is not None and not (folder / "third").is_dir():
         fail(FileNotFoundError(f"--data: no third/ folder under {folder}; pass the Middlebury "
                                "folder holding third/<Scene>/"))
     result = bench_transfer(configs=[c.strip() for c in configs.split(",")],
-                            count=count, minutes=minutes, seeds=[int(s) for s in seeds],
+                            count=count, minutes=minutes, steps=steps,
+                            seeds=[int(s) for s in seeds],
                             data=folder if (folder / "third").is_dir() else None, out=Path(out),
                             workers=workers, device=device, ceiling=not no_ceiling,
                             aggregate=aggregate, log=lambda m: click.echo(m, err=True))
@@ -253,7 +261,8 @@ def bench_transfer_cmd(out, configs, count, minutes, seeds_text, data, workers, 
     machine = describe_machine(backend=None)
     device = f"{device} ({resolve_device(device)})" if device == "auto" else device
     boxes = f"all at {aggregate}x{aggregate}" if aggregate else "each chose its box on held-out pairs"
-    title = (f"bad-3 per real scene; models trained {minutes:g} min each on {count} pairs "
+    budget = f"{minutes:g} min" if steps is None else f"{steps} steps"
+    title = (f"bad-3 per real scene; models trained {budget} each on {count} pairs "
              f"({len(seeds)} seed(s), range bars), {boxes}, device {device};\n{machine.cpu}, "
              f"{machine.cores} cores, numba {machine.numba_target}")
     click.echo(f"figure: {draw_transfer(result, Path(out) / 'transfer.png', title=title)}")

@@ -3,8 +3,10 @@ budget on each dataset config, scored on real scenes it never saw, beside census
 
 For every config (default ``flying`` and ``middlebury-like``) the job renders ``count`` pairs
 into ``out/pairs/<config>`` (the dataset engine resumes a partial folder), then trains one model
-per seed with ``stereoforge train ... --minutes M --seed S`` in a process of its own (wall time
-measured, data loading included; a model already in ``out/models`` is reused). The in-domain
+per seed with ``stereoforge train ... --minutes M --seed S`` (or ``--steps N``: the same number
+of steps for every model, whatever else the machine is doing) in a process of its own (wall time
+measured, data loading included; a model already in ``out/models`` trained with the same budget
+is reused). The in-domain
 ceiling is the same network trained on the real scenes themselves, leave-one-scene-out: one
 model per held-out scene and seed, scored on the held-out scene.
 
@@ -100,12 +102,24 @@ def _score(estimate: np.ndarray, scene: dict) -> dict:
     return row
 
 
+def _budget(minutes: float, steps: int | None) -> list[str]:
+    """``stereoforge train``'s budget arguments."""
+    return ["--minutes", f"{minutes:g}"] if steps is None else ["--steps", str(steps)]
+
+
 def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, device: str,
-           say: Callable[[str], None]) -> dict:
-    """One ``stereoforge train`` process (it dies with this one); reuses a finished model and
-    the wall time recorded beside it (``MODEL.pt.wall``)."""
+           say: Callable[[str], None], steps: int | None = None) -> dict:
+    """One ``stereoforge train`` process (it dies with this one); reuses a finished model made
+    with the same budget (``MODEL.pt.budget``) and the wall time recorded beside it
+    (``MODEL.pt.wall``)."""
     wall_file = Path(f"{model}.wall")
-    if model.is_file():
+    budget = " ".join(_budget(minutes, steps))
+    budget_file = Path(f"{model}.budget")
+    try:
+        same_budget = budget_file.read_text().strip() == budget
+    except OSError:  # none: a model from before budgets were recorded (minutes), or from elsewhere
+        same_budget = steps is None
+    if model.is_file() and same_budget:
         try:
             wall = float(wall_file.read_text())
         except (OSError, ValueError):  # none (a model from elsewhere) or not a number
@@ -115,7 +129,7 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
     boot = ("from synth.dataset.engine.tasks import die_with_parent; die_with_parent(); "
             "from synth.cli import main; main()")
     cmd = [sys.executable, "-c", boot, "train", *sources,
-           "--out", str(model), "--minutes", f"{minutes:g}", "--seed", str(seed),
+           "--out", str(model), *_budget(minutes, steps), "--seed", str(seed),
            "--device", device, "--overwrite"]
     t0 = time.monotonic()
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -126,6 +140,7 @@ def _train(sources: Sequence[str], model: Path, minutes: float, seed: int, devic
         tail = (proc.stderr.strip().splitlines() or ["no message"])[-1]
         raise DatasetError(f"training {model.name} failed: {tail}")
     atomic_write_bytes(wall_file, f"{wall:.1f}\n".encode())
+    atomic_write_bytes(budget_file, f"{budget}\n".encode())
     say(f"  {model.name}: {proc.stdout.strip()} (wall {wall:.0f} s)")
     return {"model": str(model), "wall_s": round(wall, 1), "reused": False}
 
@@ -136,7 +151,7 @@ def _config_name(config: str) -> str:
 
 
 def _check_arguments(configs: Sequence[str], *, count: int, minutes: float, seeds: Sequence[int],
-                     workers: int, device: str) -> str:
+                     workers: int, device: str, steps: int | None = None) -> str:
     """Refuse bad arguments before any work; the device name."""
     from matcher.learned.device import check_device
     from stereoforge.errors import ParameterError
@@ -153,6 +168,8 @@ def _check_arguments(configs: Sequence[str], *, count: int, minutes: float, seed
                              "per config); give each config once")
     check_int(count, "--count", lo=1, hi=10**6)
     check_real(minutes, "--minutes", lo=0, lo_open=True, hi=MAX_MINUTES)
+    if steps is not None:
+        check_int(steps, "--steps", lo=1, hi=10**9)
     if not seeds:
         raise ParameterError("--seeds: give at least one seed")
     for seed in seeds:
@@ -239,11 +256,12 @@ def _check_aggregate(aggregate: int | None, n_scenes: int, ceiling: bool) -> Non
 def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), count: int = 200,
                    minutes: float = 10.0, seeds: Sequence[int] = (0,), data: Path | None = None,
                    out: Path, workers: int = 2, device: str = "auto", ceiling: bool = True,
-                   aggregate: int | None = None,
+                   aggregate: int | None = None, steps: int | None = None,
                    log: Callable[[str], None] | None = None) -> TransferResult:
     """Train on each config (and the real scenes, leave-one-out), score on the real scenes;
     ``aggregate``: None, each model's box chosen on pairs it did not train on, or one box side
-    for every learned model (see the module docstring).
+    for every learned model (see the module docstring); ``steps``: every model trains this
+    many steps instead of ``minutes`` of wall time.
 
     Every argument is checked before anything is rendered or trained (:class:`ParameterError`).
     """
@@ -255,7 +273,8 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     if importlib.util.find_spec("torch") is None:  # before hours of rendering, not after
         raise ModuleNotFoundError("No module named 'torch'", name="torch")
     device = resolve_device(_check_arguments(configs, count=count, minutes=minutes, seeds=seeds,
-                                             workers=workers, device=device), "--device")
+                                             workers=workers, device=device, steps=steps),
+                            "--device")
     for config in configs:  # a bad config fails before anything is made or trained
         load_config(config)
     specs = _real_specs(data)
@@ -272,7 +291,7 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
         run_dataset(config, folder, count=count, workers=workers, progress=False)
         for seed in seeds:
             model = out / "models" / f"{name}-seed{seed}.pt"
-            info = _train([str(folder)], model, minutes, seed, device, say)
+            info = _train([str(folder)], model, minutes, seed, device, say, steps)
             models.append({**info, "trained_on": name, "seed": seed, "held_out": "",
                            "validated_on": "its validation split"})
     if ceiling:
@@ -283,7 +302,7 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                 others = [s["spec"] for s in scenes if s["name"] not in (scene["name"], val)]
                 tag = f"-val-{val}" if val else ""
                 model = out / "models" / f"real-without-{scene['name']}{tag}-seed{seed}.pt"
-                info = _train(others, model, minutes, seed, device, say)
+                info = _train(others, model, minutes, seed, device, say, steps)
                 models.append({**info, "trained_on": _REAL, "seed": seed,
                                "held_out": scene["name"], "validated_on": val})
     rows: list[dict] = []
