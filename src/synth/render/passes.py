@@ -265,21 +265,28 @@ class Passes:
     # ------------------------------------------------------------------ uploads
     @staticmethod
     def _texture(image: np.ndarray) -> int:
-        """Upload an (h, w, 3 or 4) uint8 image, row 0 at texture coordinate t = 0, with mipmaps.
+        """Upload an (h, w, 3 or 4) uint8 image, row 0 at texture coordinate t = 0, with its
+        mip levels made by :func:`synth.render.mipmaps.mip_chain` (not ``glGenerateMipmap``,
+        whose filter is the driver's: the same levels on every GL implementation).
 
-        Stored as RGBA8 whatever the source: llvmpipe uploads and mipmaps RGBA8 about 2.7x
-        faster than RGB8 (and samples it ~5 % faster), with the same RGB values (the shader ignores alpha), and
-        its RGB -> RGBA conversion on upload is 3x faster than numpy's or PIL's.
+        Stored as RGBA8 whatever the source (an RGB image is made RGBX by ``mip_chain``):
+        llvmpipe uploads RGBA8 about 2.7x faster than RGB8 and samples it ~5 % faster, with the
+        same RGB values (the shader ignores alpha). Immutable storage (``glTexStorage2D``), one
+        allocation for every level.
         """
         from OpenGL import GL
 
-        h, w = image.shape[:2]
+        from synth.render.mipmaps import mip_chain
+
+        levels = mip_chain(image)  # RGBX
         tex = GL.glGenTextures(1)
         GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-        source = GL.GL_RGBA if image.shape[2] == 4 else GL.GL_RGB
-        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, GL.GL_RGBA8, w, h, 0, source,
-                        GL.GL_UNSIGNED_BYTE, image)
-        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
+        GL.glTexStorage2D(GL.GL_TEXTURE_2D, len(levels), GL.GL_RGBA8, image.shape[1],
+                          image.shape[0])
+        for level, pixels in enumerate(levels):
+            h, w = pixels.shape[:2]
+            GL.glTexSubImage2D(GL.GL_TEXTURE_2D, level, 0, 0, w, h, GL.GL_RGBA,
+                               GL.GL_UNSIGNED_BYTE, pixels)
         GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR_MIPMAP_LINEAR)
         GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
         GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_WRAP_S, GL.GL_REPEAT)
