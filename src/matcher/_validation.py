@@ -65,7 +65,7 @@ def rgb_to_grey(image: np.ndarray) -> np.ndarray:
         from matcher._kernels.grey import grey_uint8_kernel
 
         out = np.empty(image.shape[:2], np.uint8)
-        grey_uint8_kernel(image, out)
+        grey_uint8_kernel(np.ascontiguousarray(image), out)
         return out
     if image.dtype.kind == "f":
         return (image @ w.astype(image.dtype)).astype(image.dtype, copy=False)

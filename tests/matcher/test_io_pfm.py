@@ -30,6 +30,22 @@ def test_colour_big_endian_exact_bytes(tmp_path):
     assert (header.width, header.height, header.channels, header.little_endian) == (2, 2, 3, False)
 
 
+@pytest.mark.parametrize("scale", [-1.0, 2.0])
+def test_any_layout_and_dtype_gives_the_bytes_of_its_flipped_float32_copy(scale):
+    rng = np.random.default_rng(3)
+    grey = rng.standard_normal((5, 7)) * 100
+    grey[1, 2], grey[3, 4] = np.inf, np.nan
+    order = "<f4" if scale < 0 else ">f4"
+    for a in (grey, grey[::-1], grey[:, ::2], np.asfortranarray(grey), grey.astype(">f4"),
+              grey.astype(np.float32), np.arange(35, dtype=np.int16).reshape(5, 7),
+              np.dstack([grey, -grey, grey / 3])[:, ::-1]):
+        h, w = a.shape[:2]
+        reference = np.flipud(a).astype(order).tobytes()
+        head = b"%s\n%d %d\n%s\n" % (b"PF" if a.ndim == 3 else b"Pf", w, h,
+                                        b"-1" if scale < 0 else b"2")
+        assert encode_pfm(a, scale=scale) == head + reference
+
+
 def test_reads_foreign_header_spacing_and_scale(tmp_path):
     # the same data with a Middlebury-style "-1.000000" scale and spaces instead of newlines
     data = struct.pack("<3f", 1.5, np.inf, np.nan)

@@ -5,7 +5,9 @@ in float64: the BT.601 weighted sum in the order (and with the fused multiply-ad
 ``image.astype(float64) @ (0.299, 0.587, 0.114)`` used before this kernel. The order matters only
 where the exact sum ``(299 r + 587 g + 114 b) / 1000`` ends in ``.5`` (16,782 of the 2**24
 colours): there rounding decides; ``tests/matcher/test_grey_kernel.py`` checks every colour.
-About 4x faster than the float64 matrix product and its three temporary arrays.
+About 4x faster than the float64 matrix product and its three temporary arrays; one flat loop
+over the pixels, which LLVM vectorises (a row and column loop did not: ~3x slower, ~1 ms for a
+960 x 540 image).
 """
 
 from __future__ import annotations
@@ -20,10 +22,11 @@ __all__ = ["grey_uint8_kernel"]
 
 @njit(cache=True, nogil=True)
 def grey_uint8_kernel(image: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compiled
-    """``out[i, j]`` = the grey level of the (H, W, 3) uint8 RGB ``image[i, j]`` (see above)."""
-    h, w = out.shape
-    for i in range(h):
-        for j in range(w):
-            x = fma(float(image[i, j, 2]), 0.114,
-                    fma(float(image[i, j, 0]), 0.299, float(image[i, j, 1]) * 0.587))
-            out[i, j] = np.uint8(min(max(np.floor(x + 0.5), 0.0), 255.0))
+    """``out[i, j]`` = the grey level of the (H, W, 3) uint8 RGB ``image[i, j]`` (see above);
+    both C-contiguous."""
+    rgb = image.reshape(-1)
+    grey = out.reshape(-1)
+    for k in range(grey.size):
+        x = fma(float(rgb[3 * k + 2]), 0.114,
+                fma(float(rgb[3 * k]), 0.299, float(rgb[3 * k + 1]) * 0.587))
+        grey[k] = np.uint8(min(max(np.floor(x + 0.5), 0.0), 255.0))

@@ -279,9 +279,12 @@ def encode_pfm(array: np.ndarray, *, scale: float = -1.0) -> bytes:
     magic = b"PF" if array.ndim == 3 else b"Pf"
     h, w = array.shape[:2]
     dtype = np.dtype("<f4" if scale < 0 else ">f4")
-    data = np.ascontiguousarray(array[::-1], dtype=dtype)
+    data = np.ascontiguousarray(array, dtype=dtype)  # no copy of a float32 map of that order
     scale_text = np.format_float_positional(scale, trim="-").encode("ascii")
-    return b"%s\n%d %d\n%s\n" % (magic, w, h, scale_text) + data.tobytes()
+    # the rows bottom to top, joined once with the header: one copy of the samples (flipping,
+    # then tobytes, then a concatenation made three)
+    return b"".join((b"%s\n%d %d\n%s\n" % (magic, w, h, scale_text),
+                     *map(memoryview, data[::-1])))
 
 
 def write_pfm(path: str | os.PathLike[str], array: np.ndarray, *, scale: float = -1.0,

@@ -90,6 +90,9 @@ _MAX_PIXELS = 2**30  # OpenCV's CV_IO_MAX_IMAGE_PIXELS default
 _FILTER_UP = 2
 _LEVEL = 1  # ISA-L levels are 0..3, zlib's 0..9: level 1 is "fast" in both
 _LIBDEFLATE_LEVEL = 2  # faster than its level 1 on grey masks and disparities, and smaller
+#: The chunks' CRC-32 (the same numbers either way): ISA-L's is ~10x faster than zlib's, which
+#: cost ~0.2 ms per 960 x 540 colour ``IDAT``.
+_crc32 = zlib.crc32 if _isal_zlib is None else _isal_zlib.crc32
 
 
 def _imread(path: Path, flags: int) -> np.ndarray:
@@ -324,9 +327,11 @@ def _deflater(name: str) -> Callable[[memoryview], bytes]:
     return lambda data: zlib.compress(data, _LEVEL)
 
 
-def _chunk(kind: bytes, data: bytes) -> bytes:
-    crc = zlib.crc32(data, zlib.crc32(kind))
-    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+def _chunk(kind: bytes, data: bytes) -> tuple[bytes, bytes, bytes, bytes]:
+    """The parts of a chunk (length, type, data, CRC), joined once with the whole file: a
+    concatenation here would copy a colour image's ~1 MB ``IDAT`` twice more."""
+    crc = _crc32(data, _crc32(kind))
+    return struct.pack(">I", len(data)), kind, data, struct.pack(">I", crc)
 
 
 def encode_png(image: np.ndarray, *, deflate: str | None = None) -> bytes:
@@ -377,5 +382,5 @@ def encode_png(image: np.ndarray, *, deflate: str | None = None) -> bytes:
     idat = _deflater(deflate or deflate_for(image))(memoryview(filtered).cast("B"))
     colour_type = 0 if image.ndim == 2 else 2
     ihdr = struct.pack(">IIBBBBB", w, h, 8 * dtype.itemsize, colour_type, 0, 0, 0)
-    return b"".join((_SIGNATURE, _chunk(b"IHDR", ihdr), _chunk(b"IDAT", idat),
-                     _chunk(b"IEND", b"")))
+    return b"".join((_SIGNATURE, *_chunk(b"IHDR", ihdr), *_chunk(b"IDAT", idat),
+                     *_chunk(b"IEND", b"")))
