@@ -442,3 +442,68 @@ def test_the_scores_of_interpolated_right_features_are_cosines():
     assert float(s_neg) == pytest.approx(0.0, abs=1e-6)
     s_quarter, _ = pair_scores(fl, fr, idx, idx, torch.tensor([0.25]), torch.tensor([0.0]))
     assert float(s_quarter) == pytest.approx(0.75 / (0.75**2 + 0.25**2) ** 0.5, abs=1e-6)
+
+
+# ------------------------------------------------------------------ the Triton cost kernel
+@pytest.fixture
+def triton_on_the_cpu(monkeypatch):
+    """The Triton cost kernel in Triton's interpreter (numpy on the CPU), used by the torch
+    pipeline as it is on a CUDA device."""
+    if importlib.util.find_spec("triton") is None:
+        pytest.skip("triton is not installed (torch's CUDA builds for Linux bring it)")
+    import sys
+
+    from matcher.learned import volume
+
+    monkeypatch.setenv("TRITON_INTERPRET", "1")  # read when the kernel is decorated
+    sys.modules.pop("matcher.learned._triton_cost", None)
+    kernel = importlib.import_module("matcher.learned._triton_cost")
+    monkeypatch.setattr(volume, "_cost_for", lambda device: kernel.cost)
+    yield kernel
+    sys.modules.pop("matcher.learned._triton_cost", None)  # not the interpreted one for others
+
+
+def test_the_triton_cost_kernel_gives_the_torch_costs_bit_for_bit(triton_on_the_cpu):
+    """Costs across the range and tiles cut by the image's edges (the blocks are 32 x 64).
+
+    The interpreter rounds every float32 operation on its own (numpy), so this checks the
+    kernel's operations and their order; that the GPU compiles them without fused
+    multiply-adds (``enable_fp_fusion=False``) is checked on a GPU by the test below."""
+    from matcher.learned import volume
+
+    g = torch.Generator().manual_seed(0)
+    for h, c, w, n_disp in [(2, 32, 70, 37), (3, 8, 131, 5)]:
+        fl = torch.nn.functional.normalize(torch.randn(h, c, w, generator=g), dim=1)
+        fr = torch.nn.functional.normalize(torch.randn(h, c, w, generator=g), dim=1)
+        fr[:, :, ::7] = fl[:, :, ::7]  # equal features: costs at 0 too
+        want = volume._cost(fl, fr, n_disp, float(COST_SCALE))
+        got = triton_on_the_cpu.cost(fl, fr, n_disp, float(COST_SCALE))
+        assert got.dtype == want.dtype and torch.equal(got, want)
+        assert (want == 0).any() and (want == 65535).any()
+
+
+@pytest.mark.parametrize("aggregate, lr_check", [(1, True), (5, True)])
+def test_the_pipeline_with_the_triton_kernel_equals_the_numba_path(triton_on_the_cpu, aggregate,
+                                                                   lr_check):
+    m = _model(seed=2, arch=Architecture())  # 32 maps: the training default
+    left, right = _noise_pair(5, shape=(14, 70), seed=3)
+    a, b = _both_paths(left, right, m, max_disparity=20, aggregate=aggregate, lr_check=lr_check,
+                       subpixel=True)
+    _assert_same_disparity(a, b)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(),
+                    reason="no CUDA GPU here: the compiled kernel is checked where there is one")
+def test_the_triton_cost_kernel_on_a_gpu_gives_the_cpu_costs():
+    if importlib.util.find_spec("triton") is None:
+        pytest.skip("triton is not installed (torch's CUDA builds for Linux bring it)")
+    from matcher.learned import volume
+    from matcher.learned._triton_cost import cost
+
+    g = torch.Generator().manual_seed(1)
+    fl = torch.nn.functional.normalize(torch.randn(9, 32, 301, generator=g), dim=1)
+    fr = torch.nn.functional.normalize(torch.randn(9, 32, 301, generator=g), dim=1)
+    want = volume._cost(fl, fr, 77, float(COST_SCALE))  # on the CPU: the numba path's numbers
+    got = cost(fl.cuda(), fr.cuda(), 77, float(COST_SCALE)).cpu()
+    assert torch.equal(got, want)
+    assert volume._cost_for(torch.device("cuda")) is cost

@@ -18,9 +18,16 @@ So the integer disparities and the invalid mask are the numba path's exactly, an
 values agree to the last float32 bit wherever float64 division is correctly rounded (both
 IEEE 754). :func:`volume_disparity` builds the volume in chunks of rows, each with the box's halo
 of rows, of at most :data:`CHUNK_BYTES` of tensors at a time.
+
+On a CUDA device the cost comes from one Triton kernel instead
+(:mod:`matcher.learned._triton_cost`: the same float32 operations in the same order, the
+accumulator in registers instead of two whole-volume passes per channel) when ``triton`` can be
+imported; without it, from the torch operations above.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import torch
 
@@ -53,6 +60,18 @@ def _cost(fl: torch.Tensor, fr: torch.Tensor, n_disp: int, scale: float) -> torc
     val = (1.0 - acc).mul_(scale).add_(0.5).clamp_(0.0, _TOP)
     cost = val.to(torch.int32)  # truncation of a value >= 0: the kernel's uint16 cast
     cost.masked_fill_(_invalid(n_disp, w, fl.device), _COST_SENTINEL)
+    return cost
+
+
+def _cost_for(device: torch.device) -> Callable[..., torch.Tensor]:
+    """The cost function for features on ``device``: the Triton kernel on a CUDA device where
+    ``triton`` imports, else :func:`_cost`."""
+    if device.type != "cuda":
+        return _cost
+    try:
+        from matcher.learned._triton_cost import cost
+    except ImportError:  # a torch build without triton: the same numbers, more memory traffic
+        return _cost
     return cost
 
 
@@ -160,11 +179,12 @@ def volume_disparity(fl: torch.Tensor, fr: torch.Tensor, n_disp: int, *, scale: 
     budget = CHUNK_BYTES.get(fl.device.type, CHUNK_BYTES["cpu"])
     rows = max(1, budget // (BYTES_PER_ENTRY * n_disp * w) - 2 * halo)
     out = torch.empty((h, w), dtype=torch.float32, device=fl.device)
+    cost_of = _cost_for(fl.device)
     with torch.inference_mode():
         for y0 in range(0, h, rows):
             y1 = min(h, y0 + rows)
             a0, a1 = max(0, y0 - halo), min(h, y1 + halo)
-            cost = _cost(fl[a0:a1], fr[a0:a1], n_disp, scale)
+            cost = cost_of(fl[a0:a1], fr[a0:a1], n_disp, scale)
             if aggregate > 1:
                 cost = _aggregate(cost, aggregate)
             out[y0:y1] = _select(cost, lr_tol, subpixel)[y0 - a0:y1 - a0]
