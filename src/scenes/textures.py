@@ -166,14 +166,24 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
     ((64, 64), 'float32', True, 1.0)
     """
     h, w = (int(n) for n in shape)
-    index, gain = _annulus(h, w, float(frequency), float(pixel_size[0]), float(pixel_size[1]))
-    spectrum = np.zeros((h, w // 2 + 1), dtype=np.complex64)
+    index, gain, used = _annulus(h, w, float(frequency), float(pixel_size[0]),
+                                 float(pixel_size[1]))
     coefficients = rng.standard_normal((2, index.size), dtype=np.float32)
     coefficients *= gain
-    flat = spectrum.reshape(-1)
-    flat.real[index] = coefficients[0]
-    flat.imag[index] = coefficients[1]
-    noise = np.fft.irfft2(spectrum, s=(h, w))
+    # np.fft.irfft2(spectrum, s=(h, w)) is an ifft down each column, then an irfft along each
+    # row. Only the first ``used`` columns hold band cells: the column transforms run on those
+    # alone (the others stay zero), the same bits in ~20 % less FFT time.
+    spectrum = np.zeros((h, w // 2 + 1), dtype=np.complex64)
+    if index.size:
+        band = np.zeros((h, used), dtype=np.complex64)
+        flat = band.reshape(-1)
+        flat.real[index] = coefficients[0]
+        flat.imag[index] = coefficients[1]
+        np.fft.ifft(band, axis=0, out=spectrum[:, :used])
+        del band
+        noise = np.fft.irfft(spectrum, n=w, axis=1)
+    else:  # no band cell below Nyquist: zeros, signed as irfft2 signs them
+        noise = np.fft.irfft2(spectrum, s=(h, w))
     del spectrum
     noise -= noise.mean(dtype=np.float64)
     std = math.sqrt(float(np.square(noise).mean(dtype=np.float64)))
@@ -184,9 +194,11 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
 
 @functools.lru_cache(maxsize=32)
 def _annulus(h: int, w: int, frequency: float, du: float, dv: float
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """Flat indices into the (h, w // 2 + 1) rfft grid where the cut annulus of
-    :func:`band_limited_noise` is non-zero, and its float32 gain there (read-only arrays).
+             ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Where the cut annulus of :func:`band_limited_noise` is non-zero on the (h, w // 2 + 1)
+    rfft grid: the number ``used`` of leading columns that can hold band cells, the flat
+    indices of the band cells into the grid's (h, used) left part, and the float32 gain there
+    (read-only arrays).
 
     Cached: scenes rebuilt with new seeds reuse their textures' shapes and frequencies.
     """
@@ -202,13 +214,15 @@ def _annulus(h: int, w: int, frequency: float, du: float, dv: float
     inside = np.abs(offset) <= NOISE_BAND * sigma
     r, c = np.divmod(np.flatnonzero(inside), cols.size)  # = np.nonzero(inside), 2x faster
     offset = offset[inside]
-    index = rows[r] * fu.size + cols[c]  # flat indices into the (h, w // 2 + 1) grid, ascending
+    # cols is 0, 1, ..., cols.size - 1 (fu ascends from 0): flat indices into the grid's
+    # (h, cols.size) left part, ascending
+    index = rows[r] * cols.size + cols[c]
     keep = index != 0  # zero mean
     index, offset = index[keep], offset[keep]
     gain = np.exp(-0.5 * (offset / sigma) ** 2).astype(np.float32)
     index.setflags(write=False)
     gain.setflags(write=False)
-    return index, gain
+    return index, gain, int(cols.size)
 
 
 def _soft_square(phase: np.ndarray, pixels_per_cycle: float) -> np.ndarray:

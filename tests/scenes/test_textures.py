@@ -167,6 +167,46 @@ def test_band_limited_noise_is_zero_when_the_band_is_beyond_nyquist() -> None:
 
 
 # ---------------------------------------------------------------------------- reference formulas
+def reference_noise(shape: tuple[int, int], frequency: float, pixel_size: tuple[float, float],
+                    rng: np.random.Generator) -> np.ndarray:
+    """``band_limited_noise`` as its docstring says: the whole rfft grid, one ``irfft2``.
+
+    ``band_limited_noise`` tests only the cells near the band and transforms only the columns
+    that hold band cells; the bits (signed zeros included) must not change.
+    """
+    h, w = shape
+    f32 = np.float32
+    fu, fv = np.fft.rfftfreq(w, d=pixel_size[0]), np.fft.fftfreq(h, d=pixel_size[1])
+    radius = np.hypot(fv[:, None], fu[None, :])
+    sigma = frequency / 3.0
+    band = np.abs(radius - frequency) <= NOISE_BAND * sigma
+    band[0, 0] = False
+    gain = np.exp(-0.5 * ((radius - frequency) / sigma) ** 2).astype(f32)
+    re, im = rng.standard_normal((2, int(band.sum())), dtype=f32)
+    spectrum = np.zeros(band.shape, dtype=np.complex64)
+    spectrum[band] = re * gain[band] + 1j * (im * gain[band])
+    noise = np.fft.irfft2(spectrum, s=(h, w))
+    noise = (noise - noise.mean(dtype=np.float64)).astype(f32)
+    std = np.sqrt(np.mean(noise**2, dtype=np.float64))
+    return noise * f32(1.0 / std) if std > 0 else noise  # 0: no frequency of the band fits
+
+
+@pytest.mark.parametrize(("shape", "frequency", "pixel_size"), [
+    ((576, 768), 30.0, (1 / 200, 1 / 200)),  # a large flying texture: half the columns used
+    ((45, 81), 6.0, (1 / 32, 1 / 40)),  # odd sides
+    ((89, 8), 39.3, (0.065, 0.105)),  # no band cell below Nyquist: signed zeros
+    ((1, 5), 2.0, (0.1, 0.1)),  # one row
+    ((7, 3), 0.5, (0.9, 0.2)),  # the band's outer edge beyond Nyquist on both axes
+])
+def test_band_limited_noise_bits_equal_the_reference(shape, frequency: float,
+                                                     pixel_size) -> None:
+    got = band_limited_noise(shape, frequency=frequency, pixel_size=pixel_size,
+                             rng=np.random.default_rng(5))
+    want = reference_noise(shape, frequency, pixel_size, np.random.default_rng(5))
+    assert got.dtype == want.dtype == np.float32 and got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
+
+
 def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.ndarray:
     """``make_texture`` written as its docstring's formulas, one temporary per step.
 
@@ -180,19 +220,7 @@ def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.n
     if spec.kind == "constant" or spec.contrast == 0.0:
         pattern = np.zeros((h, w), dtype=f32)
     elif spec.kind == "noise":
-        fu, fv = np.fft.rfftfreq(w, d=du), np.fft.fftfreq(h, d=dv)
-        radius = np.hypot(fv[:, None], fu[None, :])
-        sigma = spec.frequency / 3.0
-        band = np.abs(radius - spec.frequency) <= NOISE_BAND * sigma
-        band[0, 0] = False
-        gain = np.exp(-0.5 * ((radius - spec.frequency) / sigma) ** 2).astype(f32)
-        re, im = rng.standard_normal((2, int(band.sum())), dtype=f32)
-        spectrum = np.zeros(band.shape, dtype=np.complex64)
-        spectrum[band] = re * gain[band] + 1j * (im * gain[band])
-        noise = np.fft.irfft2(spectrum, s=(h, w))
-        noise = (noise - noise.mean(dtype=np.float64)).astype(f32)
-        std = np.sqrt(np.mean(noise**2, dtype=np.float64))
-        noise = noise * f32(1.0 / std) if std > 0 else noise  # 0: no frequency of the band fits
+        noise = reference_noise((h, w), spec.frequency, (du, dv), rng)
         pattern = np.clip(noise * f32(1 / 2.5), -1.0, 1.0)
     else:
         u, v = (np.arange(w) + 0.5) * du, (np.arange(h) + 0.5) * dv

@@ -75,6 +75,21 @@ def test_texture_bytes_equal_the_reference_formulas(spec: TextureSpec, extent) -
                                   reference_texture(spec, extent=extent))
 
 
+@given(st.integers(1, 96), st.integers(1, 96), st.floats(0.05, 60.0),
+       st.tuples(st.floats(0.002, 0.5), st.floats(0.002, 0.5)), st.integers(0, 2**32 - 1))
+def test_band_limited_noise_bits_equal_the_reference(h: int, w: int, frequency: float,
+                                                     pixel_size, seed: int) -> None:
+    """Column-pruned transforms change no bit, signed zeros included (hand-picked examples:
+    ``test_textures.py::test_band_limited_noise_bits_equal_the_reference``)."""
+    from scenes.textures import band_limited_noise
+
+    reference_noise = _sibling("test_textures.py").reference_noise
+    got = band_limited_noise((h, w), frequency=frequency, pixel_size=pixel_size,
+                             rng=np.random.default_rng(seed))
+    want = reference_noise((h, w), frequency, pixel_size, np.random.default_rng(seed))
+    assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+
+
 def _is_5_smooth(n: int) -> bool:
     for p in (2, 3, 5):
         while n % p == 0:
