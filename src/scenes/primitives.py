@@ -2,7 +2,7 @@
 
 Each :class:`~scenes.spec.ObjectSpec` becomes one ``trimesh.Trimesh`` (``process=False``) whose
 vertices are already in the world (left camera) frame. Its visual is a
-``trimesh.visual.TextureVisuals`` with one texture image from :func:`scenes.textures.make_texture`
+``trimesh.visual.TextureVisuals`` with one texture image from :func:`scenes.textures.texture_image`
 and a white :class:`~trimesh.visual.material.SimpleMaterial` (the image is not darkened by
 trimesh's default grey diffuse colour).
 
@@ -39,7 +39,7 @@ from PIL import Image
 
 from scenes.assets import load_mesh_file
 from scenes.spec import ObjectSpec, SceneSpec
-from scenes.textures import band_limited_noise, make_texture
+from scenes.textures import band_limited_noise, texture_image
 
 __all__ = ["build_mesh", "build_meshes", "plane_equation", "OPEN_KINDS"]
 
@@ -317,8 +317,7 @@ def _textured(obj: ObjectSpec, world: np.ndarray, faces: np.ndarray, coords: np.
               extent: tuple[float, float], normals: np.ndarray, metadata: dict
               ) -> trimesh.Trimesh:
     uv = np.column_stack([coords[:, 0] / extent[0], 1.0 - coords[:, 1] / extent[1]])
-    image = Image.fromarray(make_texture(obj.texture, extent=extent), mode="RGB")
-    material = _material(image, obj)
+    material = _material(texture_image(obj.texture, extent=extent), obj)
     visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
     return trimesh.Trimesh(vertices=world, faces=faces, vertex_normals=normals, visual=visual,
                            process=False, validate=False, metadata=metadata)

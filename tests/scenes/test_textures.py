@@ -11,6 +11,7 @@ from scenes.textures import (
     NOISE_BAND,
     band_limited_noise,
     make_texture,
+    texture_image,
     texture_shape,
 )
 
@@ -254,6 +255,21 @@ def test_make_texture_bytes_equal_the_reference_formulas(spec: TextureSpec) -> N
     extent = (1.7, 1.1)  # e.g. 432 x 256 at 37.5 cycles/m (noise), 95 x 62 checker at 7
     np.testing.assert_array_equal(make_texture(spec, extent=extent),
                                   reference_texture(spec, extent=extent))
+
+
+@pytest.mark.parametrize("spec", [
+    TextureSpec(kind="noise", frequency=9.0, color=(0.9, 0.9, 0.6), seed=2),
+    TextureSpec(kind="checker", frequency=7.0, angle=33.0, color=(0.8, 0.7, 0.9)),
+    TextureSpec(kind="stripes", frequency=5.0, color=(0.0, 1.0, 0.5)),
+    TextureSpec(kind="constant", mean=0.42),
+    TextureSpec(kind="image", frequency=20.0, image="skimage:astronaut"),
+])
+def test_texture_image_holds_make_texture_pixels(spec: TextureSpec) -> None:
+    extent = (0.9, 0.6)
+    want = make_texture(spec, extent=extent)
+    image = texture_image(spec, extent=extent)
+    assert image.mode == "RGB" and image.size == (want.shape[1], want.shape[0])
+    assert image.tobytes() == want.tobytes()
 
 
 def test_texture_side_examples() -> None:

@@ -49,6 +49,18 @@ def test_texture_is_deterministic_and_in_range(spec: TextureSpec, extent) -> Non
 
 
 @given(_small, _extent)
+def test_texture_image_holds_make_texture_pixels(spec: TextureSpec, extent) -> None:
+    """The same pixels for every kind (hand-picked examples:
+    ``test_textures.py::test_texture_image_holds_make_texture_pixels``)."""
+    from scenes.textures import make_texture, texture_image
+
+    want = make_texture(spec, extent=extent)
+    image = texture_image(spec, extent=extent)
+    assert image.mode == "RGB" and image.size == (want.shape[1], want.shape[0])
+    assert image.tobytes() == want.tobytes()
+
+
+@given(_small, _extent)
 def test_zero_contrast_is_constant(spec: TextureSpec, extent) -> None:
     from scenes.textures import make_texture
 
