@@ -2,7 +2,7 @@
 
 Each :class:`~scenes.spec.ObjectSpec` becomes one ``trimesh.Trimesh`` (``process=False``) whose
 vertices are already in the world (left camera) frame. Its visual is a
-``trimesh.visual.TextureVisuals`` with one texture image from :func:`scenes.textures.make_texture`
+``trimesh.visual.TextureVisuals`` with one texture image from :func:`scenes.textures.texture_image`
 and a white :class:`~trimesh.visual.material.SimpleMaterial` (the image is not darkened by
 trimesh's default grey diffuse colour).
 
@@ -39,7 +39,7 @@ from PIL import Image
 
 from scenes.assets import load_mesh_file
 from scenes.spec import ObjectSpec, SceneSpec
-from scenes.textures import band_limited_noise, make_texture
+from scenes.textures import band_limited_noise, texture_image
 
 __all__ = ["build_mesh", "build_meshes", "plane_equation", "OPEN_KINDS"]
 
@@ -67,6 +67,14 @@ def _grid_faces(rows: int, cols: int) -> np.ndarray:
     return np.concatenate([np.stack([a, d, cc], 1), np.stack([a, cc, b], 1)]).astype(np.int64)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of (..., 3) float64 arrays: numpy's expressions, the same bits,
+    without its axis handling (2-3x faster on the small arrays of these meshes)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _gutter(obj: ObjectSpec, largest: float) -> float:
     """Space between atlas charts: half a texture period, at most 5 % of the largest chart."""
     return min(0.5 / obj.texture.frequency, 0.05 * largest)
@@ -76,7 +84,7 @@ def _quad(center: np.ndarray, normal: np.ndarray, down: np.ndarray, la: float, l
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rectangle facing ``normal``: ``u`` along ``normal x down`` (length ``la``), ``v`` along
     ``down`` (length ``lb``). Returns vertices (4, 3), faces (2, 3) and coords (4, 2)."""
-    across = np.cross(normal, down)
+    across = _cross(normal, down)
     uv = np.array([[0.0, 0.0], [la, 0.0], [la, lb], [0.0, lb]])
     verts = (center + (uv[:, :1] - la / 2) * across + (uv[:, 1:] - lb / 2) * down)
     faces = np.array([[0, 2, 1], [0, 3, 2]])  # normal = down x across
@@ -235,7 +243,7 @@ def _triplanar(verts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
     by at most ``sqrt(3)`` elsewhere. Every chart maps into one patch of the texture.
     """
     tri = verts[faces]
-    normal = np.abs(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
+    normal = np.abs(_cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
     axis = np.argmax(normal, axis=1)
     pick = np.array([[2, 1], [0, 2], [0, 1]])[axis]  # x: (z, y), y: (x, z), z: (x, y)
     corners = tri.reshape(-1, 3)
@@ -317,27 +325,28 @@ def _textured(obj: ObjectSpec, world: np.ndarray, faces: np.ndarray, coords: np.
               extent: tuple[float, float], normals: np.ndarray, metadata: dict
               ) -> trimesh.Trimesh:
     uv = np.column_stack([coords[:, 0] / extent[0], 1.0 - coords[:, 1] / extent[1]])
-    image = Image.fromarray(make_texture(obj.texture, extent=extent), mode="RGB")
-    material = _material(image, obj)
+    material = _material(texture_image(obj.texture, extent=extent), obj)
     visual = trimesh.visual.TextureVisuals(uv=uv, material=material)
     return trimesh.Trimesh(vertices=world, faces=faces, vertex_normals=normals, visual=visual,
                            process=False, validate=False, metadata=metadata)
 
 
 def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (zero for vertices of no face).
+    """Area-weighted unit vertex normals of (N, 3) float64 vertices (zero for vertices of no
+    face).
 
     Several times faster than trimesh's angle-weighted ones (scipy sparse sums), which they
     match to within a few degrees on these meshes; both follow the winding.
     """
-    tri = vertices[faces]
-    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # 2 x area x unit normal
-    normals = np.zeros_like(vertices)
-    corners = faces.T.ravel()
-    for axis in range(3):
-        normals[:, axis] = np.bincount(corners, np.tile(face_n[:, axis], 3),
-                                       minlength=len(vertices))
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    first = vertices[faces[:, 0]]
+    face_n = _cross(vertices[faces[:, 1]] - first, vertices[faces[:, 2]] - first)  # 2 x area x n
+    # one bincount over (vertex, axis) bins: each bin sums its faces in the order the three
+    # per-axis bincounts of faces.T.ravel() did (all first corners, then second, then third)
+    bins = (3 * faces.T.reshape(-1, 1) + np.arange(3)).ravel()
+    normals = np.bincount(bins, np.tile(face_n, (3, 1)).ravel(),
+                          minlength=3 * len(vertices)).reshape(-1, 3)
+    # np.linalg.norm(normals, axis=1, keepdims=True), its expression
+    length = np.sqrt(np.add.reduce(normals * normals, axis=1, keepdims=True))
     np.divide(normals, length, out=normals, where=length > 0)
     return normals
 

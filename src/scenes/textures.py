@@ -14,12 +14,13 @@ import functools
 import math
 
 import numpy as np
+from PIL import Image
 
 from scenes.photos import photo_pixels_per_metre, photo_texture
 from scenes.spec import TextureSpec
 
-__all__ = ["make_texture", "texture_shape", "band_limited_noise", "PIXELS_PER_CYCLE",
-           "NOISE_PIXELS_PER_CYCLE", "NOISE_BAND", "MAX_TEXTURE_SIDE"]
+__all__ = ["make_texture", "texture_image", "texture_shape", "band_limited_noise",
+           "PIXELS_PER_CYCLE", "NOISE_PIXELS_PER_CYCLE", "NOISE_BAND", "MAX_TEXTURE_SIDE"]
 
 #: Default sampling of checker and stripes: texture pixels per period (edges are antialiased
 #: over about one pixel, so this sets their sharpness).
@@ -166,14 +167,24 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
     ((64, 64), 'float32', True, 1.0)
     """
     h, w = (int(n) for n in shape)
-    index, gain = _annulus(h, w, float(frequency), float(pixel_size[0]), float(pixel_size[1]))
-    spectrum = np.zeros((h, w // 2 + 1), dtype=np.complex64)
+    index, gain, used = _annulus(h, w, float(frequency), float(pixel_size[0]),
+                                 float(pixel_size[1]))
     coefficients = rng.standard_normal((2, index.size), dtype=np.float32)
     coefficients *= gain
-    flat = spectrum.reshape(-1)
-    flat.real[index] = coefficients[0]
-    flat.imag[index] = coefficients[1]
-    noise = np.fft.irfft2(spectrum, s=(h, w))
+    # np.fft.irfft2(spectrum, s=(h, w)) is an ifft down each column, then an irfft along each
+    # row. Only the first ``used`` columns hold band cells: the column transforms run on those
+    # alone (the others stay zero), the same bits in ~20 % less FFT time.
+    spectrum = np.zeros((h, w // 2 + 1), dtype=np.complex64)
+    if index.size:
+        band = np.zeros((h, used), dtype=np.complex64)
+        flat = band.reshape(-1)
+        flat.real[index] = coefficients[0]
+        flat.imag[index] = coefficients[1]
+        np.fft.ifft(band, axis=0, out=spectrum[:, :used])
+        del band
+        noise = np.fft.irfft(spectrum, n=w, axis=1)
+    else:  # no band cell below Nyquist: zeros, signed as irfft2 signs them
+        noise = np.fft.irfft2(spectrum, s=(h, w))
     del spectrum
     noise -= noise.mean(dtype=np.float64)
     std = math.sqrt(float(np.square(noise).mean(dtype=np.float64)))
@@ -184,9 +195,11 @@ def band_limited_noise(shape: tuple[int, int], *, frequency: float,
 
 @functools.lru_cache(maxsize=32)
 def _annulus(h: int, w: int, frequency: float, du: float, dv: float
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """Flat indices into the (h, w // 2 + 1) rfft grid where the cut annulus of
-    :func:`band_limited_noise` is non-zero, and its float32 gain there (read-only arrays).
+             ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Where the cut annulus of :func:`band_limited_noise` is non-zero on the (h, w // 2 + 1)
+    rfft grid: the number ``used`` of leading columns that can hold band cells, the flat
+    indices of the band cells into the grid's (h, used) left part, and the float32 gain there
+    (read-only arrays).
 
     Cached: scenes rebuilt with new seeds reuse their textures' shapes and frequencies.
     """
@@ -202,13 +215,15 @@ def _annulus(h: int, w: int, frequency: float, du: float, dv: float
     inside = np.abs(offset) <= NOISE_BAND * sigma
     r, c = np.divmod(np.flatnonzero(inside), cols.size)  # = np.nonzero(inside), 2x faster
     offset = offset[inside]
-    index = rows[r] * fu.size + cols[c]  # flat indices into the (h, w // 2 + 1) grid, ascending
+    # cols is 0, 1, ..., cols.size - 1 (fu ascends from 0): flat indices into the grid's
+    # (h, cols.size) left part, ascending
+    index = rows[r] * cols.size + cols[c]
     keep = index != 0  # zero mean
     index, offset = index[keep], offset[keep]
     gain = np.exp(-0.5 * (offset / sigma) ** 2).astype(np.float32)
     index.setflags(write=False)
     gain.setflags(write=False)
-    return index, gain
+    return index, gain, int(cols.size)
 
 
 def _soft_square(phase: np.ndarray, pixels_per_cycle: float) -> np.ndarray:
@@ -277,14 +292,54 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
     >>> make_texture(TextureSpec(contrast=0.0, mean=0.5), extent=(1.0, 1.0))[0, 0].tolist()
     [128, 128, 128]
     """
+    h, w = _checked_shape(spec, extent, pixels_per_metre, max_side)
+    if spec.kind == "image":
+        return photo_texture(spec, (h, w), _check_extent(extent))
+    # contiguous planes interleaved in one pass (5x faster than strided channel writes)
+    return np.dstack(_planes(spec, (h, w), extent))
+
+
+def texture_image(spec: TextureSpec, *, extent: tuple[float, float],
+                  pixels_per_metre: float | None = None,
+                  max_side: int = MAX_TEXTURE_SIDE) -> Image.Image:
+    """:func:`make_texture`'s image as an RGB ``PIL.Image`` (what a mesh material holds).
+
+    The same pixels; the channel planes are merged straight into the image, without the
+    interleaved array (half the copying). PIL stores RGB pixels in four bytes; the fourth (not
+    part of the image, ``tobytes("raw", "RGBX")`` shows it) is 0 here, 255 after
+    ``Image.fromarray``.
+
+    Examples
+    --------
+    >>> spec = TextureSpec(kind="stripes", frequency=8.0, color=(1.0, 0.5, 0.25))
+    >>> image = texture_image(spec, extent=(2.0, 1.0))
+    >>> image.mode, image.size
+    ('RGB', (129, 65))
+    >>> bool(np.array_equal(np.asarray(image), make_texture(spec, extent=(2.0, 1.0))))
+    True
+    """
+    h, w = _checked_shape(spec, extent, pixels_per_metre, max_side)
+    if spec.kind == "image":
+        return Image.fromarray(photo_texture(spec, (h, w), _check_extent(extent)), mode="RGB")
+    return Image.merge("RGB", [Image.frombuffer("L", (w, h), plane, "raw", "L", 0, 1)
+                               for plane in _planes(spec, (h, w), extent)])
+
+
+def _checked_shape(spec: TextureSpec, extent: tuple[float, float],
+                   pixels_per_metre: float | None, max_side: int) -> tuple[int, int]:
     if not isinstance(spec, TextureSpec):
         raise TypeError(f"spec must be a TextureSpec, got {type(spec).__name__}")
-    width, height = _check_extent(extent)
-    h, w = texture_shape(spec, extent=extent, pixels_per_metre=pixels_per_metre,
+    return texture_shape(spec, extent=extent, pixels_per_metre=pixels_per_metre,
                          max_side=max_side)
+
+
+def _planes(spec: TextureSpec, shape: tuple[int, int], extent: tuple[float, float]
+            ) -> list[np.ndarray]:
+    """The red, green and blue (h, w) uint8 planes of a pattern texture (not ``"image"``),
+    C-contiguous; channels of the same tint share one array."""
+    h, w = shape
+    width, height = _check_extent(extent)
     du, dv = width / w, height / h
-    if spec.kind == "image":
-        return photo_texture(spec, (h, w), (width, height))
     rng = np.random.default_rng(spec.seed)
     if spec.kind == "constant" or spec.contrast == 0.0:
         grey = np.full((h, w), np.float32(spec.mean))
@@ -318,5 +373,4 @@ def make_texture(spec: TextureSpec, *, extent: tuple[float, float],
             np.multiply(grey, np.float32(255.0 * tint), out=level)
             np.rint(level, out=level)
             planes[tint] = level.astype(np.uint8)
-    # contiguous planes interleaved in one pass (5x faster than strided channel writes)
-    return np.dstack([planes[tint] for tint in spec.color])
+    return [planes[tint] for tint in spec.color]

@@ -11,6 +11,7 @@ from scenes.textures import (
     NOISE_BAND,
     band_limited_noise,
     make_texture,
+    texture_image,
     texture_shape,
 )
 
@@ -167,6 +168,46 @@ def test_band_limited_noise_is_zero_when_the_band_is_beyond_nyquist() -> None:
 
 
 # ---------------------------------------------------------------------------- reference formulas
+def reference_noise(shape: tuple[int, int], frequency: float, pixel_size: tuple[float, float],
+                    rng: np.random.Generator) -> np.ndarray:
+    """``band_limited_noise`` as its docstring says: the whole rfft grid, one ``irfft2``.
+
+    ``band_limited_noise`` tests only the cells near the band and transforms only the columns
+    that hold band cells; the bits (signed zeros included) must not change.
+    """
+    h, w = shape
+    f32 = np.float32
+    fu, fv = np.fft.rfftfreq(w, d=pixel_size[0]), np.fft.fftfreq(h, d=pixel_size[1])
+    radius = np.hypot(fv[:, None], fu[None, :])
+    sigma = frequency / 3.0
+    band = np.abs(radius - frequency) <= NOISE_BAND * sigma
+    band[0, 0] = False
+    gain = np.exp(-0.5 * ((radius - frequency) / sigma) ** 2).astype(f32)
+    re, im = rng.standard_normal((2, int(band.sum())), dtype=f32)
+    spectrum = np.zeros(band.shape, dtype=np.complex64)
+    spectrum[band] = re * gain[band] + 1j * (im * gain[band])
+    noise = np.fft.irfft2(spectrum, s=(h, w))
+    noise = (noise - noise.mean(dtype=np.float64)).astype(f32)
+    std = np.sqrt(np.mean(noise**2, dtype=np.float64))
+    return noise * f32(1.0 / std) if std > 0 else noise  # 0: no frequency of the band fits
+
+
+@pytest.mark.parametrize(("shape", "frequency", "pixel_size"), [
+    ((576, 768), 30.0, (1 / 200, 1 / 200)),  # a large flying texture: half the columns used
+    ((45, 81), 6.0, (1 / 32, 1 / 40)),  # odd sides
+    ((89, 8), 39.3, (0.065, 0.105)),  # no band cell below Nyquist: signed zeros
+    ((1, 5), 2.0, (0.1, 0.1)),  # one row
+    ((7, 3), 0.5, (0.9, 0.2)),  # the band's outer edge beyond Nyquist on both axes
+])
+def test_band_limited_noise_bits_equal_the_reference(shape, frequency: float,
+                                                     pixel_size) -> None:
+    got = band_limited_noise(shape, frequency=frequency, pixel_size=pixel_size,
+                             rng=np.random.default_rng(5))
+    want = reference_noise(shape, frequency, pixel_size, np.random.default_rng(5))
+    assert got.dtype == want.dtype == np.float32 and got.shape == want.shape
+    assert got.tobytes() == want.tobytes()
+
+
 def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.ndarray:
     """``make_texture`` written as its docstring's formulas, one temporary per step.
 
@@ -180,19 +221,7 @@ def reference_texture(spec: TextureSpec, *, extent: tuple[float, float]) -> np.n
     if spec.kind == "constant" or spec.contrast == 0.0:
         pattern = np.zeros((h, w), dtype=f32)
     elif spec.kind == "noise":
-        fu, fv = np.fft.rfftfreq(w, d=du), np.fft.fftfreq(h, d=dv)
-        radius = np.hypot(fv[:, None], fu[None, :])
-        sigma = spec.frequency / 3.0
-        band = np.abs(radius - spec.frequency) <= NOISE_BAND * sigma
-        band[0, 0] = False
-        gain = np.exp(-0.5 * ((radius - spec.frequency) / sigma) ** 2).astype(f32)
-        re, im = rng.standard_normal((2, int(band.sum())), dtype=f32)
-        spectrum = np.zeros(band.shape, dtype=np.complex64)
-        spectrum[band] = re * gain[band] + 1j * (im * gain[band])
-        noise = np.fft.irfft2(spectrum, s=(h, w))
-        noise = (noise - noise.mean(dtype=np.float64)).astype(f32)
-        std = np.sqrt(np.mean(noise**2, dtype=np.float64))
-        noise = noise * f32(1.0 / std) if std > 0 else noise  # 0: no frequency of the band fits
+        noise = reference_noise((h, w), spec.frequency, (du, dv), rng)
         pattern = np.clip(noise * f32(1 / 2.5), -1.0, 1.0)
     else:
         u, v = (np.arange(w) + 0.5) * du, (np.arange(h) + 0.5) * dv
@@ -226,6 +255,21 @@ def test_make_texture_bytes_equal_the_reference_formulas(spec: TextureSpec) -> N
     extent = (1.7, 1.1)  # e.g. 432 x 256 at 37.5 cycles/m (noise), 95 x 62 checker at 7
     np.testing.assert_array_equal(make_texture(spec, extent=extent),
                                   reference_texture(spec, extent=extent))
+
+
+@pytest.mark.parametrize("spec", [
+    TextureSpec(kind="noise", frequency=9.0, color=(0.9, 0.9, 0.6), seed=2),
+    TextureSpec(kind="checker", frequency=7.0, angle=33.0, color=(0.8, 0.7, 0.9)),
+    TextureSpec(kind="stripes", frequency=5.0, color=(0.0, 1.0, 0.5)),
+    TextureSpec(kind="constant", mean=0.42),
+    TextureSpec(kind="image", frequency=20.0, image="skimage:astronaut"),
+])
+def test_texture_image_holds_make_texture_pixels(spec: TextureSpec) -> None:
+    extent = (0.9, 0.6)
+    want = make_texture(spec, extent=extent)
+    image = texture_image(spec, extent=extent)
+    assert image.mode == "RGB" and image.size == (want.shape[1], want.shape[0])
+    assert image.tobytes() == want.tobytes()
 
 
 def test_texture_side_examples() -> None:

@@ -49,6 +49,18 @@ def test_texture_is_deterministic_and_in_range(spec: TextureSpec, extent) -> Non
 
 
 @given(_small, _extent)
+def test_texture_image_holds_make_texture_pixels(spec: TextureSpec, extent) -> None:
+    """The same pixels for every kind (hand-picked examples:
+    ``test_textures.py::test_texture_image_holds_make_texture_pixels``)."""
+    from scenes.textures import make_texture, texture_image
+
+    want = make_texture(spec, extent=extent)
+    image = texture_image(spec, extent=extent)
+    assert image.mode == "RGB" and image.size == (want.shape[1], want.shape[0])
+    assert image.tobytes() == want.tobytes()
+
+
+@given(_small, _extent)
 def test_zero_contrast_is_constant(spec: TextureSpec, extent) -> None:
     from scenes.textures import make_texture
 
@@ -59,8 +71,10 @@ def test_zero_contrast_is_constant(spec: TextureSpec, extent) -> None:
 
 
 # frequencies of 0.5 to 40 cycles per metre drawn directly (a filter on texture_specs()'s whole
-# positive range rejects most draws and trips hypothesis's filter_too_much health check)
-_moderate = st.tuples(texture_specs(), st.floats(0.5, 40.0)).map(
+# positive range rejects most draws and trips hypothesis's filter_too_much health check); the
+# procedural kinds only (a photograph is no formula: test_photos.py checks "image")
+_moderate = st.tuples(texture_specs(kinds=("noise", "checker", "stripes", "constant")),
+                      st.floats(0.5, 40.0)).map(
     lambda drawn: dataclasses.replace(drawn[0], frequency=drawn[1]))
 
 
@@ -73,6 +87,21 @@ def test_texture_bytes_equal_the_reference_formulas(spec: TextureSpec, extent) -
     reference_texture = _sibling("test_textures.py").reference_texture
     np.testing.assert_array_equal(make_texture(spec, extent=extent),
                                   reference_texture(spec, extent=extent))
+
+
+@given(st.integers(1, 96), st.integers(1, 96), st.floats(0.05, 60.0),
+       st.tuples(st.floats(0.002, 0.5), st.floats(0.002, 0.5)), st.integers(0, 2**32 - 1))
+def test_band_limited_noise_bits_equal_the_reference(h: int, w: int, frequency: float,
+                                                     pixel_size, seed: int) -> None:
+    """Column-pruned transforms change no bit, signed zeros included (hand-picked examples:
+    ``test_textures.py::test_band_limited_noise_bits_equal_the_reference``)."""
+    from scenes.textures import band_limited_noise
+
+    reference_noise = _sibling("test_textures.py").reference_noise
+    got = band_limited_noise((h, w), frequency=frequency, pixel_size=pixel_size,
+                             rng=np.random.default_rng(seed))
+    want = reference_noise((h, w), frequency, pixel_size, np.random.default_rng(seed))
+    assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
 
 
 def _is_5_smooth(n: int) -> bool:

@@ -152,8 +152,10 @@ def texture_array(image: Any) -> np.ndarray:
     """A texture (PIL image or array) as a C-contiguous (h, w, 3 or 4) uint8 array.
 
     A PIL RGB image comes out as (h, w, 4), its RGB and the fourth byte PIL keeps beside them
-    (RGBX, 255): the copy out of PIL costs what the 3-channel one does, and the upload then
-    skips Mesa's RGB -> RGBA conversion (the texture is RGBA8 either way; shaders read ``.rgb``).
+    (RGBX: 255 from ``Image.fromarray``, 0 from ``Image.merge`` as in
+    :func:`scenes.textures.texture_image`): the copy out of PIL costs what the 3-channel one
+    does, and the upload then skips Mesa's RGB -> RGBA conversion (the texture is RGBA8 either
+    way; shaders read ``.rgb`` only, so the fourth byte changes no output).
     """
     if hasattr(image, "mode") and hasattr(image, "convert"):  # a PIL image
         if image.mode not in ("RGB", "RGBA"):
