@@ -37,7 +37,9 @@ def _cost_kernel(fl, fr, out, channels, width, n_disp, scale,
     src = xs[None, :] - ds[:, None]
     inside = (xs[None, :] < width) & (ds[:, None] < n_disp)
     valid = inside & (src >= 0)
-    acc = tl.zeros((BD, BX), dtype=tl.float32)
+    # tl.full, a builtin: tl.zeros is a @jit function, which Triton's interpreter cannot run when
+    # triton.language was imported before TRITON_INTERPRET was set (torch imports it)
+    acc = tl.full((BD, BX), 0.0, dtype=tl.float32)
     for ch in range(channels):
         row = (y * channels + ch) * width
         a = tl.load(fl + row + xs, mask=xs < width, other=0.0)
