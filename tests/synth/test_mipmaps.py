@@ -55,6 +55,20 @@ def test_every_level_follows_the_documented_filter(h, w, channels, seed):
         np.testing.assert_array_equal(level, _reference_level(previous))
 
 
+@given(h=st.integers(1, 300), w=st.integers(1, 150).map(lambda k: 2 * k - 1),
+       extremes=st.booleans(), seed=st.integers(0, 2**32 - 1))
+def test_four_byte_texels_reduce_as_each_channel_alone(h, w, extremes, seed):
+    # RGBX levels of odd width take the texel kernel (two channels per 16-bit half of a word):
+    # no channel may carry into its neighbour, saturated values included
+    rng = np.random.default_rng(seed)
+    if extremes:
+        image = rng.choice(np.array([0, 1, 254, 255], np.uint8), (h, w, 4))
+    else:
+        image = rng.integers(0, 256, (h, w, 4), np.uint8)
+    alone = np.concatenate([reduce_level(image[..., c:c + 1]) for c in range(4)], axis=2)
+    np.testing.assert_array_equal(reduce_level(image), alone)
+
+
 def test_an_even_level_is_the_two_by_two_mean_rounded_twice():
     rng = np.random.default_rng(3)
     level = rng.integers(0, 256, (6, 8, 4), np.uint8)
