@@ -661,3 +661,30 @@ def test_a_layout_1_dataset_is_refused_then_upgraded_to_the_same_bytes(reference
     again = run_dataset(config_file, out=old, progress=False)
     assert (again.rendered, again.skipped) == (0, 12)
     _assert_same_tree(reference, old)
+
+
+def test_sample_statistics_kernel_equals_numpys_masked_reductions():
+    """The one-pass statistics of a sample give the floats numpy's masked min/max and counts
+    give (the values written into every sample.json)."""
+    import numpy as np
+
+    from synth.dataset.sample import _disparity_stats
+
+    rng = np.random.default_rng(3)
+    for trial in range(30):
+        shape = (int(rng.integers(1, 60)), int(rng.integers(1, 60)))
+        disp = (rng.normal(40.0, 30.0, shape)).astype(np.float32)
+        for value, share in ((np.inf, 0.2), (-np.inf, 0.05), (np.nan, 0.05)):
+            disp[rng.random(shape) < share * (trial % 3)] = value
+        if trial == 5:
+            disp[:] = np.inf  # no ground truth at all
+        mask = rng.choice(np.array([0, 128, 255], np.uint8), shape)
+        lo, hi, occluded, invalid = _disparity_stats(disp.reshape(-1), mask.reshape(-1))
+        finite = np.isfinite(disp)
+        if finite.any():
+            assert lo == np.min(disp, where=finite, initial=np.inf)
+            assert hi == np.max(disp, where=finite, initial=-np.inf)
+        else:
+            assert (lo, hi) == (np.inf, -np.inf)
+        assert occluded == np.count_nonzero(mask == 128)
+        assert invalid == np.count_nonzero(mask == 0)

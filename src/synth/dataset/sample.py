@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
@@ -69,6 +70,25 @@ def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
 
 def _r(value: float | None) -> float | None:
     return None if value is None else round(float(value), 6)
+
+
+@njit(cache=True, nogil=True)
+def _disparity_stats(disp: np.ndarray, mask: np.ndarray
+                     ) -> tuple[float, float, int, int]:  # pragma: no cover - compiled
+    """``(min, max)`` of the finite values of ``disp`` (``(inf, -inf)`` if none) and the counts
+    of occluded (128) and invalid (0) codes of ``mask``, in one pass over both (numpy's
+    ``min(where=...)``/``max(where=...)`` took ~1.6 ms each on a 960x540 image; minima and
+    maxima are exact, so the values are the same)."""
+    lo, hi = np.inf, -np.inf
+    for v in disp:
+        if np.isfinite(v):
+            lo = min(lo, np.float64(v))
+            hi = max(hi, np.float64(v))
+    occluded = invalid = 0
+    for code in mask:
+        occluded += code == 128
+        invalid += code == 0
+    return lo, hi, occluded, invalid
 
 
 # --------------------------------------------------------------------------- one sample
@@ -128,21 +148,21 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     else:
         rho = edge_density(pair.left)
     degraded = dataclasses.replace(pair, left=out.left, right=out.right, **variants)
-    finite = np.isfinite(pair.disp_left)
-    has_finite = bool(finite.any())
+    disp_lo, disp_hi, occluded, invalid = _disparity_stats(
+        np.ascontiguousarray(pair.disp_left).reshape(-1),
+        np.ascontiguousarray(pair.mask_left).reshape(-1))
+    has_finite = disp_lo <= disp_hi
     mask_size = pair.mask_left.size
     stats = {
         "edge_density": _r(rho),
         "edge_search_probes": None if search is None else search.probes,
         "edge_search_converged": None if search is None else search.converged,
         "texture_frequency_px": _r(effective_frequency_px(scene, fx=config.rig.fx)),
-        "disp_min": _r(np.min(pair.disp_left, where=finite, initial=np.inf)) if has_finite
-        else None,
-        "disp_max": _r(np.max(pair.disp_left, where=finite, initial=-np.inf)) if has_finite
-        else None,
-        # = np.mean(mask == code): the same float (an exact count over the size), 6x faster
-        "occluded_fraction": _r(np.count_nonzero(pair.mask_left == 128) / mask_size),
-        "invalid_fraction": _r(np.count_nonzero(pair.mask_left == 0) / mask_size),
+        "disp_min": _r(disp_lo) if has_finite else None,
+        "disp_max": _r(disp_hi) if has_finite else None,
+        # = np.mean(mask == code): the same float (an exact count over the size)
+        "occluded_fraction": _r(occluded / mask_size),
+        "invalid_fraction": _r(invalid / mask_size),
     }
     if textureless is not None:  # only then: other datasets keep their manifests' bytes
         stats["textureless_fraction"] = _r(textureless)
