@@ -20,6 +20,7 @@ import numpy as np
 
 from stereoforge.errors import ParameterError
 from synth.render.meshes import DISPLAY_GAMMA, Mesh
+from synth.render.shading import HEADER, TEXTURE_LOD
 
 __all__ = ["HIGHLIGHT_LEVELS", "SHADOW_MAP_SIZE", "Light", "LitScene", "LitProgram",
            "scene_lights", "upload_lit", "release_lit"]
@@ -133,8 +134,7 @@ void main() {
     albedo_tint = tint;
 }
 """
-_LIT_FRAG = """#version 330 core
-in vec2 uv;
+_LIT_FRAG = (HEADER + """in vec2 uv;
 in vec3 p;
 in vec3 nrm;
 in vec3 albedo_tint;
@@ -156,6 +156,7 @@ uniform int double_sided;
 uniform int mode;                   // 0: colour; 1: highlight excess, grey levels
 uniform float gamma;
 layout(location = 0) out vec4 out_color;
+""" + TEXTURE_LOD + """
 void main() {
     vec3 n = normalize(nrm);
     if (double_sided == 1 && dot(n, -p) < 0.0) n = -n;  // the side the left camera sees
@@ -202,7 +203,7 @@ void main() {
             spec += e * pow(ndh, shininess);
         }
     }
-    vec3 matte = pow(texture(tex, uv).rgb * albedo_tint, vec3(gamma)) * diffuse;
+    vec3 matte = pow(texture_lod(tex, uv).rgb * albedo_tint, vec3(gamma)) * diffuse;
     vec3 lit = matte + vec3(specular * spec);
     vec3 c = pow(clamp(lit, 0.0, 1.0), vec3(1.0 / gamma));
     if (mode == 0) {
@@ -212,7 +213,7 @@ void main() {
         out_color = vec4(max(rise.r, max(rise.g, rise.b)), 0.0, 0.0, 1.0);
     }
 }
-""" % {"n": _MAX_LIGHTS, "m": _MAX_LAYERS}
+""") % {"n": _MAX_LIGHTS, "m": _MAX_LAYERS}
 _SHADOW_VERT = """#version 330 core
 layout(location = 0) in vec3 position;
 uniform mat4 PV;

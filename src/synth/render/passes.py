@@ -20,6 +20,7 @@ import numpy as np
 from stereoforge.errors import ParameterError
 from synth.render.backend import GLBackendError
 from synth.render.meshes import Mesh
+from synth.render.shading import HEADER, TEXTURE_LOD
 
 __all__ = ["GLLimits", "GLScene", "Passes", "VERTEX_STRIDE", "compile_program",
            "delete_framebuffer", "draw_groups", "framebuffer"]
@@ -91,28 +92,14 @@ void main() {
     mult = shade;
 }
 """
-# The mip level is chosen here, not by the driver: texture() leaves the scale factor rho to the
-# implementation (GL 4.6, 8.14.1 allows approximations of it, and the derivatives may be coarse
-# or fine), and on two GL implementations of one machine (llvmpipe, softpipe) that choice alone
-# moved flying's colours by a mean 1.4 and a p99 of 9-12 grey levels. Here rho is the exact
-# formula, max of the lengths of d(uv * size)/dx and /dy, from fine derivatives where the driver
-# has them (ARB_derivative_control: llvmpipe, softpipe, NVIDIA), and textureLod samples it with
-# the sampler's trilinear filter. docs/ground-truth.md has the measurements.
-_COLOR_FRAG = """#version 330 core
-#extension GL_ARB_derivative_control : enable
-in vec2 uv;
+# texture x per-vertex shade, the texture sampled at a mip level of our own (synth.render.shading)
+_COLOR_FRAG = HEADER + """in vec2 uv;
 in vec3 mult;
 uniform sampler2D tex;
 layout(location = 0) out vec4 out_color;
+""" + TEXTURE_LOD + """
 void main() {
-    vec2 size = vec2(textureSize(tex, 0));
-#ifdef GL_ARB_derivative_control
-    vec2 dx = dFdxFine(uv) * size, dy = dFdyFine(uv) * size;
-#else
-    vec2 dx = dFdx(uv) * size, dy = dFdy(uv) * size;
-#endif
-    float lod = 0.5 * log2(max(dot(dx, dx), dot(dy, dy)));
-    out_color = vec4(clamp(textureLod(tex, uv, lod).rgb * mult, 0.0, 1.0), 1.0);
+    out_color = vec4(clamp(texture_lod(tex, uv).rgb * mult, 0.0, 1.0), 1.0);
 }
 """
 _GT_VERT = """#version 330 core
@@ -223,7 +210,7 @@ class Passes:
     """The two passes of a view and the framebuffers they draw into.
 
     Colour: our flat shader (texture x per-vertex shade, trilinear mipmapped
-    texture lookups at a mip level of our own, ``_COLOR_FRAG``) into a
+    texture lookups at a mip level of our own, :mod:`synth.render.shading`) into a
     ``_MSAA_SAMPLES``-sample RGBA8 framebuffer, resolved
     by a same-size blit (the average of the samples) into a single-sample one.
     Ground truth: no multisampling, camera-space ``Z`` into ``GL_R32F`` with a
