@@ -6,9 +6,10 @@ a separate implementation of the same specification, with its own texture filter
 and rasterisation. What the GL specification leaves to a driver shows up between them as it does
 between llvmpipe and a GPU's driver: with the mip level chosen by ``texture()`` (the driver's
 scale factor), the golden ``flying`` images differed by a mean |dI| of 1.4 grey levels and a p99
-of 9-12 (the check allows 1 and 10); with the level chosen by our shader (``_COLOR_FRAG``), by
-0.3-0.37 and 1 (docs/ground-truth.md). Softpipe has no multisampled colour buffers, so both
-render with one sample per pixel here: the 4x resolve is the one freedom this test cannot see.
+of 9-12 (the check allows 1 and 10); with the level chosen by our shaders
+(:mod:`synth.render.shading`), by 0.3-0.37 and 1 (docs/ground-truth.md). Softpipe has no
+multisampled colour buffers, so both render with one sample per pixel here: the 4x resolve is
+the one freedom this test cannot see.
 """
 
 from __future__ import annotations
@@ -49,27 +50,29 @@ _RENDER = textwrap.dedent("""
 """)
 
 
-def _render(driver: str, path: Path) -> dict[str, np.ndarray]:
+def _render(driver: str, path: Path, require_or_skip) -> dict[str, np.ndarray]:
     env = {**os.environ, "GALLIUM_DRIVER": driver}
     run = subprocess.run([sys.executable, "-c", _RENDER, str(path)], env=env,
                          capture_output=True, text=True, timeout=300)
     if run.returncode != 0:
-        pytest.skip(f"Mesa's {driver} did not render the golden scenes through EGL here: "
-                    f"{run.stderr.strip().splitlines()[-1:]}")
+        require_or_skip(f"Mesa's {driver} did not render the golden scenes through EGL here: "
+                        f"{run.stderr.strip().splitlines()[-1:]}", env="STEREOFORGE_REQUIRE_GL")
     with np.load(path) as data:
         return {k: data[k] for k in data.files}
 
 
-def test_llvmpipe_and_softpipe_agree_within_the_golden_tolerances(tmp_path):
-    llvmpipe = _render("llvmpipe", tmp_path / "llvmpipe.npz")
-    softpipe = _render("softpipe", tmp_path / "softpipe.npz")
+def test_llvmpipe_and_softpipe_agree_within_the_golden_tolerances(tmp_path, require_or_skip):
+    llvmpipe = _render("llvmpipe", tmp_path / "llvmpipe.npz", require_or_skip)
+    softpipe = _render("softpipe", tmp_path / "softpipe.npz", require_or_skip)
     if "llvmpipe" not in str(llvmpipe["renderer"]) or "softpipe" not in str(softpipe["renderer"]):
-        pytest.skip(f"GALLIUM_DRIVER did not pick the drivers (got {llvmpipe['renderer']} and "
-                    f"{softpipe['renderer']}): a Mesa without both gallium software drivers")
+        require_or_skip(f"GALLIUM_DRIVER did not pick the drivers (got {llvmpipe['renderer']} "
+                        f"and {softpipe['renderer']}): a Mesa without both gallium software "
+                        "drivers", env="STEREOFORGE_REQUIRE_GL")
     failures: list[str] = []
     for preset, _ in GOLDEN_SCENES:
-        pairs = [SimpleNamespace(**{f: d[f"{preset}/{f}"] for f in (
-            "left", "right", "disp_left", "disp_right", "mask_left")}) for d in (softpipe, llvmpipe)]
+        fields = ("left", "right", "disp_left", "disp_right", "mask_left")
+        pairs = [SimpleNamespace(**{f: d[f"{preset}/{f}"] for f in fields})
+                 for d in (softpipe, llvmpipe)]
         compare_render(preset, pairs[0], pairs[1], failures)
     assert not failures, failures
     # not vacuous: the two drivers do differ (filter weights, rasterisation of edges)

@@ -6,7 +6,9 @@ an AVX2 CPU (~6 ns each: about 10 ms per view) and Intel's SVML on an AVX-512 on
 results differ in the last bit, so that the same seed gave different images on different CPUs.
 This module is the algorithm of glibc's ``powf`` (2.28 and later; Szabolcs Nagy's, from Arm's
 optimized-routines, ``math/powf.c``, MIT OR Apache-2.0 WITH LLVM-exception), with its tables,
-in a loop that LLVM vectorizes: the same bits on every CPU and ~3x faster. glibc's x86-64
+in a loop that LLVM vectorizes: the same bits on every CPU, and ~1.4x faster than ``np.power``
+on an AVX2 CPU (7.1 against 10.0 ms for a 960x540 RGB view, allocation included; the table
+lookups stay scalar loads, which bounds the gain). glibc's x86-64
 build that runs on a CPU with FMA (its ``ifunc`` choice on every x86-64 CPU since 2013)
 contracts each ``a * b + c`` whose product has no other use into one fused multiply-add; so
 does this port, with explicit ``llvm.fma`` calls (a correctly rounded library call on a CPU
@@ -26,6 +28,7 @@ Arm Limited, optimized-routines, ``math/powf.c``, ``math/powf_log2_data.c``,
 from __future__ import annotations
 
 import math
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
@@ -35,11 +38,13 @@ from stereoforge.validation import describe
 
 __all__ = ["fma", "powf"]
 
+
 def _hex(values: list[str]) -> np.ndarray:
     return np.array([float.fromhex(v) for v in values])
 
 
-#: ``(1/c, log2(c))`` of the 16 subintervals of ``[0x3f330000, 2 * 0x3f330000)`` (powf_log2_data).
+#: ``(1/c, log2(c))`` of the 16 subintervals of ``[0x3f330000, 2 * 0x3f330000)``
+#: (powf_log2_data); global constants, which lets LLVM vectorize the loops that read them.
 _LOG2_INVC = _hex([
     "0x1.661ec79f8f3bep+0", "0x1.571ed4aaf883dp+0", "0x1.49539f0f010bp+0", "0x1.3c995b0b80385p+0",
     "0x1.30d190c8864a5p+0", "0x1.25e227b0b8eap+0", "0x1.1bb4a4a1a343fp+0", "0x1.12358f08ae5bap+0",
@@ -47,13 +52,15 @@ _LOG2_INVC = _hex([
     "0x1.b2036576afce6p-1", "0x1.9c2d163a1aa2dp-1", "0x1.886e6037841edp-1", "0x1.767dcf5534862p-1",
 ])
 _LOG2_LOGC = _hex([
-    "-0x1.efec65b963019p-2", "-0x1.b0b6832d4fca4p-2", "-0x1.7418b0a1fb77bp-2", "-0x1.39de91a6dcf7bp-2",
-    "-0x1.01d9bf3f2b631p-2", "-0x1.97c1d1b3b7afp-3", "-0x1.2f9e393af3c9fp-3", "-0x1.960cbbf788d5cp-4",
+    "-0x1.efec65b963019p-2", "-0x1.b0b6832d4fca4p-2", "-0x1.7418b0a1fb77bp-2",
+    "-0x1.39de91a6dcf7bp-2", "-0x1.01d9bf3f2b631p-2", "-0x1.97c1d1b3b7afp-3",
+    "-0x1.2f9e393af3c9fp-3", "-0x1.960cbbf788d5cp-4",
     "-0x1.a6f9db6475fcep-5", "0x0p+0", "0x1.338ca9f24f53dp-4", "0x1.476a9543891bap-3",
     "0x1.e840b4ac4e4d2p-3", "0x1.40645f0c6651cp-2", "0x1.88e9c2c1b9ff8p-2", "0x1.ce0a44eb17bccp-2",
 ])
-_A0, _A1, _A2, _A3, _A4 = map(float.fromhex, ("0x1.27616c9496e0bp-2", "-0x1.71969a075c67ap-2", "0x1.ec70a6ca7baddp-2",
-                           "-0x1.7154748bef6c8p-1", "0x1.71547652ab82bp0"))
+_A0, _A1, _A2, _A3, _A4 = map(float.fromhex, (
+    "0x1.27616c9496e0bp-2", "-0x1.71969a075c67ap-2", "0x1.ec70a6ca7baddp-2",
+    "-0x1.7154748bef6c8p-1", "0x1.71547652ab82bp0"))
 #: ``bits(2^(i/32)) - (i << 47)`` (exp2f_data.tab).
 _EXP2_TAB = np.array([
     0x3ff0000000000000, 0x3fefd9b0d3158574, 0x3fefb5586cf9890f, 0x3fef9301d0125b51,
@@ -124,8 +131,7 @@ def _bits_of_f64(typingctx, x):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _log2(ix: np.int64, invc_t: np.ndarray, logc_t: np.ndarray
-          ) -> np.float64:  # pragma: no cover - compiled
+def _log2(ix: np.int64) -> np.float64:  # pragma: no cover - compiled
     """glibc's ``log2_inline`` of a positive normal float32's bits ``ix`` (FMA build)."""
     tmp = (ix - _OFF) & 0xFFFFFFFF  # uint32 arithmetic, wrapping
     i = (tmp >> 19) & 15
@@ -133,8 +139,8 @@ def _log2(ix: np.int64, invc_t: np.ndarray, logc_t: np.ndarray
     iz = (ix - top) & 0xFFFFFFFF
     k = (top - ((top >> 31) << 32)) >> 23  # (int32) top >> 23, arithmetic
     z = np.float64(_f32_from_bits(iz))
-    r = fma(z, invc_t[i], -1.0)
-    y0 = logc_t[i] + np.float64(k)
+    r = fma(z, _LOG2_INVC[i], -1.0)
+    y0 = _LOG2_LOGC[i] + np.float64(k)
     r2 = r * r
     y = fma(_A0, r, _A1)
     p = fma(_A2, r, _A3)
@@ -145,13 +151,13 @@ def _log2(ix: np.int64, invc_t: np.ndarray, logc_t: np.ndarray
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _exp2(xd: np.float64, tab: np.ndarray) -> np.float64:  # pragma: no cover - compiled
+def _exp2(xd: np.float64) -> np.float64:  # pragma: no cover - compiled
     """glibc's ``exp2_inline`` (FMA build, no sign bias) for ``|xd| < 126``."""
     kd = xd + _SHIFT
     ki = _bits_of_f64(kd)
     kd -= _SHIFT
     r = xd - kd
-    t = tab[ki & np.uint64(31)] + (ki << np.uint64(47))
+    t = _EXP2_TAB[ki & np.uint64(31)] + (ki << np.uint64(47))
     s = _f64_from_bits(t)
     z = fma(_C0, r, _C1)
     r2 = r * r
@@ -177,9 +183,9 @@ def _fast(x: np.float32, yd: np.float64) -> tuple:  # pragma: no cover - compile
     normal = (ix >= 0x00800000) & (ix < 0x7F800000)
     # the tables are global constants: LLVM then knows no store can change them, and
     # vectorizes the loops below (with arrays passed in, it cannot bound their accesses)
-    ylogx = yd * _log2(ix if normal else 0x3F800000, _LOG2_INVC, _LOG2_LOGC)
+    ylogx = yd * _log2(ix if normal else 0x3F800000)
     fast = normal & (((_bits_of_f64(ylogx) >> np.uint64(47)) & np.uint64(0xFFFF)) < _BIG)
-    v = np.float32(_exp2(ylogx if fast else 0.0, _EXP2_TAB))
+    v = np.float32(_exp2(ylogx if fast else 0.0))
     # +0 (black pixels): powf(+0, y > 0) = +0, the only other input common in images
     return v if ix != 0 else np.float32(0.0), fast | (ix == 0)
 
