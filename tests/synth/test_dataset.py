@@ -688,3 +688,31 @@ def test_sample_statistics_kernel_equals_numpys_masked_reductions():
             assert (lo, hi) == (np.inf, -np.inf)
         assert occluded == np.count_nonzero(mask == 128)
         assert invalid == np.count_nonzero(mask == 0)
+
+
+def test_calib_range_kernel_equals_numpys_masked_reductions():
+    """calib.txt's bounds come from one compiled pass over both maps: the floats numpy's masked
+    min/max give, over non-contiguous and float64 maps too."""
+    import numpy as np
+
+    from synth.formats._ranges import finite_range
+
+    rng = np.random.default_rng(4)
+    for trial in range(30):
+        shape = (int(rng.integers(1, 50)), int(rng.integers(1, 50)))
+        maps = [rng.normal(30.0, 40.0, shape).astype(np.float32 if trial % 4 else np.float64)
+                for _ in range(2)]
+        for d in maps:
+            for value, share in ((np.inf, 0.3), (-np.inf, 0.05), (np.nan, 0.1)):
+                d[rng.random(shape) < share * (trial % 3)] = value
+        if trial == 7:
+            maps[0][:] = np.inf  # one map without ground truth
+        if trial == 8:
+            maps[0][:], maps[1][:] = np.nan, np.inf  # none at all
+        views = [maps[0][:, ::-1], maps[1].T] if trial % 5 == 0 else maps
+        want_lo, want_hi = np.inf, -np.inf
+        for d in views:
+            finite = np.isfinite(d)
+            want_lo = min(want_lo, float(np.min(d, where=finite, initial=np.inf)))
+            want_hi = max(want_hi, float(np.max(d, where=finite, initial=-np.inf)))
+        assert finite_range(*views) == (want_lo, want_hi)

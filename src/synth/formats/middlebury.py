@@ -18,8 +18,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from matcher.io import (StereoSample, atomic_write_bytes, encode_flo, format_calib,
                         load_middlebury_2014, read_flo, write_middlebury)
 from synth.formats.base import Capacity, Layout
@@ -36,11 +34,9 @@ def calib_for(pair: Any) -> dict:
     ``vmin``/``vmax`` bound the finite left and right disparities (floor/ceil); ``ndisp`` is
     ``vmax + 1`` rounded up to a multiple of 16, as Middlebury's conservative search bound.
     """
-    lo, hi = math.inf, -math.inf
-    for d in (pair.disp_left, pair.disp_right):
-        finite = np.isfinite(d)
-        lo = min(lo, float(np.min(d, where=finite, initial=np.inf)))
-        hi = max(hi, float(np.max(d, where=finite, initial=-np.inf)))
+    from synth.formats._ranges import finite_range  # numba: imported when a pair is written
+
+    lo, hi = finite_range(pair.disp_left, pair.disp_right)
     if lo > hi:  # no finite disparity at all
         lo = hi = 0.0
     vmin = int(math.floor(lo))
