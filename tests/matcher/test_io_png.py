@@ -17,7 +17,7 @@ from PIL import Image
 from matcher.io import png
 from matcher.io.png import DEFLATE, encode_png
 
-DEFLATES = ["zlib", "isal", "libdeflate"]
+DEFLATES = ["zlib", "isal", "libdeflate", "stored"]
 
 
 def _chunks(data: bytes) -> list[tuple[bytes, bytes]]:
@@ -63,6 +63,38 @@ def test_file_structure_and_up_filter():
     assert raw == bytes([2, 1, 2, 3, 2, 3, 2, 247])
     head = _chunks(encode_png(np.zeros((1, 2, 3), np.uint16)))[0][1]
     assert head == struct.pack(">IIBBBBB", 2, 1, 16, 2, 0, 0, 0)  # 16-bit RGB
+
+
+def test_stored_is_the_unfiltered_rows_in_stored_blocks():
+    # 70,000 bytes of rows: two stored blocks (at most 65,535 bytes each), the last one flagged
+    rng = np.random.default_rng(2)
+    img = rng.integers(0, 256, (100, 233, 3), dtype=np.uint8)
+    idat = _chunks(encode_png(img, deflate="stored"))[1][1]
+    rows = np.concatenate([np.zeros((100, 1), np.uint8), img.reshape(100, -1)], axis=1)
+    raw = rows.tobytes()  # filter byte 0 ("None") per row
+    assert len(raw) == 70_000
+    assert idat[:2] == b"\x78\x01" and (idat[0] * 256 + idat[1]) % 31 == 0  # zlib header
+    assert idat[2:7] == struct.pack("<BHH", 0, 65535, 0)
+    assert idat[7:7 + 65535] == raw[:65535]
+    tail = idat[7 + 65535:]
+    assert tail[:5] == struct.pack("<BHH", 1, 70_000 - 65535, (70_000 - 65535) ^ 0xFFFF)
+    assert tail[5:-4] == raw[65535:]
+    assert tail[-4:] == struct.pack(">I", zlib.adler32(raw))
+    assert zlib.decompress(idat) == raw
+    # a row set of exactly one block's size, and a one-pixel image
+    for shape in ((5, 13107), (1, 1)):
+        one = rng.integers(0, 256, shape, dtype=np.uint8)
+        assert zlib.decompress(_chunks(encode_png(one, deflate="stored"))[1][1]) \
+            == np.concatenate([np.zeros((shape[0], 1), np.uint8), one], axis=1).tobytes()
+        np.testing.assert_array_equal(_decode(encode_png(one, deflate="stored")), one)
+
+
+def test_stored_bytes_depend_on_the_pixels_alone():
+    img = np.random.default_rng(3).integers(0, 256, (31, 17, 3), dtype=np.uint8)
+    data = encode_png(img, deflate="stored")
+    # signature 8, IHDR 25, IDAT 12 + zlib (2 + 5 per block + rows + 4), IEND 12
+    assert len(data) == 8 + 25 + 12 + 2 + 5 + 31 * (17 * 3 + 1) + 4 + 12
+    assert data == encode_png(img[::-1][::-1].copy(), deflate="stored")
 
 
 def test_sixteen_bit_values_are_big_endian():
@@ -133,7 +165,7 @@ def test_bad_images_are_refused(image, error, match):
 
 def test_unknown_deflate_is_refused():
     with pytest.raises(ValueError, match="deflate: expected one of 'isal', 'libdeflate', "
-                                         "'zlib' or None, got 'zstd'"):
+                                         "'zlib', 'stored' or None, got 'zstd'"):
         encode_png(np.zeros((2, 2), np.uint8), deflate="zstd")
 
 
