@@ -103,10 +103,15 @@ def raft(clients_dir: Path, monkeypatch: pytest.MonkeyPatch):
 
 
 @pytest.mark.gl
-def test_raft_middlebury_loader_lists_and_reads_our_dataset(raft, renderer, tmp_path):
+@pytest.mark.parametrize("image_deflate", [None, "stored"])
+def test_raft_middlebury_loader_lists_and_reads_our_dataset(raft, renderer, tmp_path,
+                                                            image_deflate):
     datasets, frame_utils = raft
     out = tmp_path / "ds"
-    run_dataset(loads_config(CONFIG), out=out, progress=False)
+    config = CONFIG if image_deflate is None else CONFIG.replace(
+        "count = 3\n", f'count = 3\nimage_deflate = "{image_deflate}"\n')
+    run_dataset(loads_config(config), out=out, progress=False)
+    assert loads_config(config).image_deflate == image_deflate
     loader = datasets.Middlebury(None, root=str(out), split="F")
     assert len(loader) == 3
     scenes = out / "MiddEval3" / "trainingF"

@@ -154,6 +154,8 @@ CASES = [
      2, ["nowhere"]),
     ("bench dataset: zero workers", ["bench", "dataset", "--workers", "0", "--out", "o"], 2,
      ["--workers"]),
+    ("bench dataset: unknown image deflate", ["bench", "dataset", "--image-deflate", "isal,zstd",
+                                              "--out", "o"], 2, ["--image-deflate", "'isal,zstd'"]),
     ("bench realism: no third/ under --data", ["bench", "realism", "--data", "nowhere", "--out",
                                                 "o"], 2, ["--data", "third/"]),
     ("bench validate: bad workers", ["bench", "validate", "--workers", "x", "--out", "o"], 2,

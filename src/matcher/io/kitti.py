@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher._validation import check_ground_truth, check_occlusion_mask
+from matcher._validation import check_choice, check_ground_truth, check_occlusion_mask
 from matcher.io.atomic import write_all_atomic
-from matcher.io.png import KITTI_DIVISOR, encode_png, read_disparity, read_image
+from matcher.io.png import DEFLATES, KITTI_DIVISOR, encode_png, read_disparity, read_image
 from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
 __all__ = ["KITTI_MAX_DISPARITY", "encode_kitti_disparity", "format_kitti_calib", "load_kitti_2015",
@@ -217,6 +217,7 @@ def write_kitti(
     obj_map: np.ndarray | None = None,
     calib: str | None = None,
     fsync: bool = True,
+    image_deflate: str | None = None,
 ) -> list[Path]:
     """Write frame ``index`` of a KITTI 2015-style training folder.
 
@@ -245,6 +246,10 @@ def write_kitti(
         Text of ``calib_cam_to_cam/NNNNNN.txt`` (:func:`format_kitti_calib`).
     fsync : bool, default True
         ``fsync`` each file before renaming it into place.
+    image_deflate : {"isal", "libdeflate", "zlib", "stored"}, optional
+        The deflate of the images' PNGs (``image_2``, ``image_3``;
+        :func:`~matcher.io.png.encode_png`); default :func:`~matcher.io.png.deflate_for` each.
+        The disparities and ``obj_map`` keep theirs.
 
     Returns
     -------
@@ -267,6 +272,8 @@ def write_kitti(
     """
     if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)) or not 0 <= index <= 999999:
         raise ValueError(f"index: expected an integer in [0, 999999], got {index!r}")
+    if image_deflate is not None:
+        check_choice(image_deflate, "image_deflate", DEFLATES)
     left, right = check_stereo_images(left, right)
     shape = left.shape[:2]
     mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)
@@ -277,8 +284,8 @@ def write_kitti(
     root = Path(out_root)
     name = f"{int(index):06d}_10.png"
     files = {
-        root / "image_2" / name: encode_png(left),
-        root / "image_3" / name: encode_png(right),
+        root / "image_2" / name: encode_png(left, deflate=image_deflate),
+        root / "image_3" / name: encode_png(right, deflate=image_deflate),
         root / "disp_occ_0" / name: encode_png(occ),
         root / "disp_noc_0" / name: encode_png(noc),
     }

@@ -36,7 +36,7 @@ from matcher._validation import (check_choice, check_ground_truth, check_occlusi
 from matcher.io.atomic import write_all_atomic
 from matcher.io.calib import format_calib, read_calib
 from matcher.io.pfm import encode_pfm
-from matcher.io.png import encode_png, read_disparity, read_image
+from matcher.io.png import DEFLATES, encode_png, read_disparity, read_image
 from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
 __all__ = [
@@ -222,6 +222,7 @@ def write_middlebury(
     highlight_left: np.ndarray | None = None,
     highlight_right: np.ndarray | None = None,
     layout: str = "middeval3",
+    image_deflate: str | None = None,
 ) -> list[Path]:
     """Write one stereo pair as a MiddEval3 / Middlebury 2014 scene folder.
 
@@ -260,6 +261,11 @@ def write_middlebury(
         The ground truth's file names (:data:`GT_FILES`): MiddEval3's ``disp0GT.pfm``,
         ``disp1GT.pfm``, or the 2014 scene archives' ``disp0.pfm``, ``disp1.pfm``. Every other
         file, and every byte, is the same.
+    image_deflate : {"isal", "libdeflate", "zlib", "stored"}, optional
+        The deflate of the images' PNGs (``im0``, ``im1``, ``im1E``, ``im1L``;
+        :func:`~matcher.io.png.encode_png`); default :func:`~matcher.io.png.deflate_for` each.
+        ``"stored"``: no compression (~1.6x larger, several times faster, bytes fixed by the
+        pixels). The masks keep theirs.
 
     Returns
     -------
@@ -291,6 +297,8 @@ def write_middlebury(
     ['disp0.pfm', 'disp1.pfm']
     """
     gt_left, gt_right = GT_FILES[check_choice(layout, "layout", GT_FILES)]
+    if image_deflate is not None:
+        check_choice(image_deflate, "image_deflate", DEFLATES)
     left, right = check_stereo_images(left, right)
     shape = left.shape[:2]
     mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)
@@ -310,13 +318,15 @@ def write_middlebury(
         for name, m in (("highlight_left", highlight_left), ("highlight_right", highlight_right))]
 
     out = Path(out_dir)
-    im1 = encode_png(right)
+    im1 = encode_png(right, deflate=image_deflate)
     files: dict[Path, bytes] = {
-        out / "im0.png": encode_png(left),
+        out / "im0.png": encode_png(left, deflate=image_deflate),
         out / "im1.png": im1,
         # a variant not rendered: a documented copy of im1
-        out / "im1E.png": im1 if right_exposure is None else encode_png(right_exposure),
-        out / "im1L.png": im1 if right_lighting is None else encode_png(right_lighting),
+        out / "im1E.png": im1 if right_exposure is None else encode_png(right_exposure,
+                                                                        deflate=image_deflate),
+        out / "im1L.png": im1 if right_lighting is None else encode_png(right_lighting,
+                                                                        deflate=image_deflate),
         out / gt_left: encode_pfm(disp0),
     }
     if disp1 is not None:

@@ -103,11 +103,15 @@ def bench_paper_cmd(out) -> None:
 @click.option("--format", "formats_text", default="middlebury", show_default=True,
               help="Comma-separated layouts to write, each measured in the same run (e.g. "
                    "middlebury,sceneflow,crestereo,fsd).")
+@click.option("--image-deflate", "deflates_text", default=None, metavar="NAMES",
+              help="Comma-separated deflates of the images' PNGs (the configurations' "
+                   "image_deflate: isal, libdeflate, zlib, stored), each measured in the same "
+                   "run; default: each configuration's own.")
 @backend_option
 @engine_option
 @address_option
-def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text, backend,
-                      engine, address) -> None:
+def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text, deflates_text,
+                      backend, engine, address) -> None:
     """Dataset pairs/s with 1 and 2 workers (writing included), scaling, time for 35,454 pairs.
 
     With --engine ray: a local Ray on 127.0.0.1 per run, or the cluster at --address; the actors
@@ -130,15 +134,24 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text
     if not formats or unknown:
         fail(ValueError(f"--format: expected layouts among {', '.join(DATASET_FORMATS)}, got "
                         f"{formats_text!r}"))
+    from matcher.io import DEFLATES
+
+    deflates: list[str | None] = [None]  # each configuration's own
+    if deflates_text is not None:
+        deflates = [d.strip() for d in deflates_text.split(",") if d.strip()]
+        if not deflates or not set(deflates) <= set(DEFLATES):
+            fail(ValueError(f"--image-deflate: expected names among {', '.join(DEFLATES)}, got "
+                            f"{deflates_text!r}"))
     rows = bench_dataset(configs=names, count=count, workers=workers,
                          backend=backend, progress=True, size=sizes[0], engine=engine,
-                         address=address, formats=formats)
+                         address=address, formats=formats, image_deflates=deflates)
     click.echo(write_table(rows, Path(out), "dataset"))
     from synth.jobs.bench.dataset import profile_dataset
 
     # where one worker's time goes, per stage (docs/scale.md builds its estimates on it)
-    stages = [profile_dataset(name, count=count, backend=backend, size=sizes[0])
-              for name in dict.fromkeys(names)]
+    stages = [profile_dataset(name, count=count, backend=backend, size=sizes[0],
+                              image_deflate=deflate)
+              for name in dict.fromkeys(names) for deflate in deflates]
     click.echo(write_table(stages, Path(out), "dataset-stages"))
 
 

@@ -172,7 +172,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     dest.mkdir(parents=True, exist_ok=True)
     write_pair(degraded, dest, scene=scene, seed=draw.seed, index=index,
                fmt=get_layout(fmt).writes_as,  # webdataset: shards packed from these folders
-               preview=config.preview, fsync=False, clean=pair)
+               preview=config.preview, fsync=False, clean=pair,
+               image_deflate=config.image_deflate)
     if config.ground_truth:  # optional: rendered by an extra GT pass (synth.write.ground_truth)
         from synth.write.ground_truth import render_ground_truth, write_ground_truth
 

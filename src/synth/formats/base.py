@@ -180,9 +180,11 @@ class Layout:
 
     # ------------------------------------------------------------------ writing
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
-                    fsync: bool) -> list[Path]:
+                    fsync: bool, image_deflate: str | None = None) -> list[Path]:
         """Write the layout's files of ``pair`` under ``dest`` (see the module docstring);
-        ``clean`` is the pair before the sensor and photometric models (or ``pair``)."""
+        ``clean`` is the pair before the sensor and photometric models (or ``pair``);
+        ``image_deflate`` the deflate of the images' PNGs (:func:`matcher.io.encode_png`;
+        ``None``: its default; a layout whose images are JPEG has none to give it)."""
         raise NotImplementedError
 
     def finish_files(self, names: list[str]) -> dict[str, bytes]:

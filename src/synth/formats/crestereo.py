@@ -51,7 +51,7 @@ class CREStereoLayout(Layout):
         return f"{_ROOT}/{SUBSETS[int(index) % len(SUBSETS)]}/{int(index):06d}"
 
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
-                    fsync: bool) -> list[Path]:
+                    fsync: bool, image_deflate: str | None = None) -> list[Path]:
         stem = self.key(index)
         data = (encode_jpeg(pair.left, quality=JPEG_QUALITY),
                 encode_jpeg(pair.right, quality=JPEG_QUALITY),

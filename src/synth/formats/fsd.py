@@ -50,7 +50,7 @@ class FSDLayout(Layout):
         return f"{_ROOT}/{scene:04d}/dataset/data/left/rgb/{frame:04d}.jpg"
 
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
-                    fsync: bool) -> list[Path]:
+                    fsync: bool, image_deflate: str | None = None) -> list[Path]:
         left = self.key(index)
         files = {left: encode_jpeg(pair.left, quality=JPEG_QUALITY),
                  swap_folder(left, "left", "right"): encode_jpeg(pair.right, quality=JPEG_QUALITY),

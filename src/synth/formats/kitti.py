@@ -78,11 +78,11 @@ class KittiLayout(Layout):
         clipped."""
 
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
-                    fsync: bool) -> list[Path]:
+                    fsync: bool, image_deflate: str | None = None) -> list[Path]:
         return list(write_kitti(dest / KITTI_ROOT, index, left=pair.left, right=pair.right,
                                 disp_left=pair.disp_left, mask_left=pair.mask_left,
                                 obj_map=foreground_map(pair, scene), calib=kitti_calib_for(pair),
-                                fsync=fsync))
+                                fsync=fsync, image_deflate=image_deflate))
 
     def key(self, index: int) -> str:
         return f"{KITTI_ROOT}/{int(index):06d}"

@@ -71,13 +71,13 @@ class MiddleburyLayout(Layout):
     io_layout = "middeval3"
 
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
-                    fsync: bool) -> list[Path]:
+                    fsync: bool, image_deflate: str | None = None) -> list[Path]:
         written = list(write_middlebury(
             dest, left=pair.left, right=pair.right, disp_left=pair.disp_left,
             disp_right=pair.disp_right, mask_left=pair.mask_left, calib=calib_for(pair),
             fsync=fsync, right_exposure=pair.right_exposure, right_lighting=pair.right_lighting,
             highlight_left=pair.highlight_left, highlight_right=pair.highlight_right,
-            layout=self.io_layout))
+            layout=self.io_layout, image_deflate=image_deflate))
         if pair.flow_left is not None:  # the real cameras' exact correspondence
             written.append(atomic_write_bytes(dest / "flow0.flo", encode_flo(pair.flow_left),
                                               fsync=fsync))

@@ -92,11 +92,12 @@ class SceneFlowLayout(Layout):
     placed = (_ROOT,)
 
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
-                    fsync: bool) -> list[Path]:
+                    fsync: bool, image_deflate: str | None = None) -> list[Path]:
         files = {}
         for kind, images in zip(PASSES, (clean, pair)):
             for view, image in (("left", images.left), ("right", images.right)):
-                files[f"{_THINGS}/{_relative(kind, index, view)}"] = encode_png(image)
+                files[f"{_THINGS}/{_relative(kind, index, view)}"] = encode_png(
+                    image, deflate=image_deflate)
         for view, disp in (("left", pair.disp_left), ("right", pair.disp_right)):
             files[f"{_THINGS}/{_relative('disparity', index, view)}"] = encode_pfm(disp)
         files["calib.txt"] = calib_txt(pair)

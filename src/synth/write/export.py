@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.io import atomic_write_bytes, encode_png
+from matcher.io import DEFLATES, atomic_write_bytes, encode_png
 from scenes import PRESETS, SceneSpec, get_preset, load_scene, scene_to_dict
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_input_file
@@ -212,6 +212,7 @@ def write_pair(
     preview: bool = True,
     fsync: bool = True,
     clean: StereoPair | None = None,
+    image_deflate: str | None = None,
 ) -> list[Path]:
     """Write ``pair`` in a dataset layout, plus ``scene.json`` and (optionally) ``preview.png``.
 
@@ -246,6 +247,10 @@ def write_pair(
     clean : StereoPair, optional
         The pair before the sensor and photometric models, for layouts that keep both
         (``sceneflow``'s cleanpass); default ``pair``.
+    image_deflate : {"isal", "libdeflate", "zlib", "stored"}, optional
+        The deflate of the images' PNGs and of ``preview.png``
+        (:func:`matcher.io.encode_png`; default its own); masks and disparities keep theirs,
+        JPEG images are JPEG.
 
     Returns
     -------
@@ -254,13 +259,17 @@ def write_pair(
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; valid formats: {', '.join(FORMATS)}")
+    if image_deflate is not None and image_deflate not in DEFLATES:
+        raise ValueError(f"image_deflate: expected one of {', '.join(map(repr, DEFLATES))} or "
+                         f"None, got {image_deflate!r}")
     layout = get_layout(fmt)
     out = Path(out)
     if pair.flow_left is not None and not layout.capacity.flow:
         raise OutputDirError(f"a rig with camera errors writes its exact flow as flow0.flo in the "
                              f"middlebury layouts only, not {fmt!r}; use --format middlebury")
     written = layout.write_files(pair, out, scene=scene, index=index,
-                                 clean=pair if clean is None else clean, fsync=fsync)
+                                 clean=pair if clean is None else clean, fsync=fsync,
+                                 image_deflate=image_deflate)
     record = {
         "stereoforge_version": _version(),
         "format": fmt,
@@ -274,7 +283,8 @@ def write_pair(
     written.append(scene_json)
     if preview:
         img = preview_image(pair.left, pair.right, pair.disp_left, pair.mask_left)
-        atomic_write_bytes(out / "preview.png", encode_png(img), fsync=fsync)
+        atomic_write_bytes(out / "preview.png", encode_png(img, deflate=image_deflate),
+                           fsync=fsync)
         written.append(out / "preview.png")
     return written
 

@@ -120,6 +120,8 @@ class DatasetConfig:
     ground_truth : tuple of str
         Optional ground truth written with each sample (``synth.write.ground_truth.GROUND_TRUTH``;
         empty by default).
+    image_deflate : str or None
+        The deflate of the images' PNGs (``matcher.io.encode_png``; ``None``: its default).
     scene, photometric : Mapping[str, Dist]
         Every key of the section (defaults filled in as fixed values; optional keys left unset
         are absent).
@@ -142,6 +144,7 @@ class DatasetConfig:
     photometric: Mapping[str, Dist]
     source: str = field(default="<string>", compare=False)
     ground_truth: tuple[str, ...] = ()
+    image_deflate: str | None = None
 
     def to_dict(self, *, with_count: bool = True) -> dict[str, Any]:
         """Canonical plain dict (the TOML structure, defaults filled in)."""
@@ -154,6 +157,8 @@ class DatasetConfig:
                                                for k, d in sorted(self.photometric.items())}}
         if self.ground_truth:  # absent by default: the hash of a config without it is unchanged
             out["ground_truth"] = list(self.ground_truth)
+        if self.image_deflate is not None:  # the same
+            out["image_deflate"] = self.image_deflate
         if with_count:
             out["count"] = self.count
         return out
@@ -333,6 +338,7 @@ class _Parser:
             scene=MappingProxyType(scene), photometric=MappingProxyType(sections["photometric"]),
             source=self.source,
             ground_truth=tuple(k for k in GROUND_TRUTH_KINDS if k in (top.get("ground_truth") or ())),
+            image_deflate=top.get("image_deflate"),
         )
 
 

@@ -15,6 +15,7 @@ Three measurements, all returning table rows (print them with :func:`synth.jobs.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import tempfile
 import time
@@ -22,13 +23,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from matcher.io import DEFLATE
 from synth.dataset.config.parse import resized
 from synth.formats import get_layout
 
 if TYPE_CHECKING:
     from synth.dataset.config.parse import DatasetConfig
 
-__all__ = ["bench_dataset", "profile_dataset", "check_edge_density", "resized"]
+__all__ = ["bench_dataset", "profile_dataset", "check_edge_density", "resized",
+           "with_image_deflate"]
 
 
 class _Stamped:
@@ -86,6 +89,7 @@ def bench_dataset(
     engine: str = "local",
     address: str | None = None,
     formats: Sequence[str] = ("middlebury",),
+    image_deflates: Sequence[str | None] = (None,),
 ) -> list[dict]:
     """Pairs per second of whole dataset runs, per configuration, layout and worker count.
 
@@ -112,11 +116,14 @@ def bench_dataset(
         instead of a local Ray.
     formats : sequence of str
         Layouts to write (:mod:`synth.formats`), each run in turn for every configuration.
+    image_deflates : sequence of str or None
+        The configurations' ``image_deflate`` (the deflate of the images' PNGs,
+        :func:`matcher.io.encode_png`), each run in turn; ``None``: the configuration's own.
 
     Returns
     -------
     list of dict
-        ``config, size, format, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
+        ``config, size, format, image_deflate, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
         included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
         without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
         ``pairs_per_cpu_s`` (pairs per CPU second of this process and its descendants, all
@@ -145,6 +152,8 @@ def bench_dataset(
     loaded = [load_config(name) for name in configs]  # every error before the first run
     if size is not None:
         loaded = [resized(cfg, *size) for cfg in loaded]
+    loaded = [cfg if deflate is None else with_image_deflate(cfg, deflate)
+              for cfg in loaded for deflate in image_deflates]
     for name in formats:  # what a layout cannot hold, before the first run
         layout = get_layout(name)
         for cfg in loaded:
@@ -199,7 +208,8 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
     steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
     driver_ms = 1e3 * (driver[-1] - driver[w - 1]) / (count - w) if count > w else float("nan")
     return {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}", "format": fmt,
-            "engine": engine, "workers": w, "pairs": count, "seconds": seconds,
+            "image_deflate": cfg.image_deflate or DEFLATE, "engine": engine, "workers": w,
+            "pairs": count, "seconds": seconds,
             "pairs_per_s": count / seconds, "steady_pairs_per_s": steady,
             "startup_s": seconds - count / steady,
             # a cluster's workers are not this machine's processes
@@ -210,8 +220,20 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
             "cold": cold if engine == "local" and w > 1 else None}
 
 
+def with_image_deflate(config: DatasetConfig, deflate: str) -> DatasetConfig:
+    """``config`` writing its images' PNGs with ``deflate`` (a name of
+    :data:`matcher.io.DEFLATES`)."""
+    from matcher.io import DEFLATES
+
+    if deflate not in DEFLATES:
+        raise ValueError(f"image_deflate: expected one of {', '.join(map(repr, DEFLATES))}, got "
+                         f"{deflate!r}")
+    return dataclasses.replace(config, image_deflate=deflate)
+
+
 def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto",
-                    size: tuple[int, int] | None = None) -> dict:
+                    size: tuple[int, int] | None = None,
+                    image_deflate: str | None = None) -> dict:
     """Milliseconds per pair in each stage of one worker (after one warm-up sample).
 
     Measured in a fresh child process set up like one worker of a run that gives each worker
@@ -229,7 +251,8 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     (measured apart). Not in ``total``: ``commit``, what the driver spends per pair on the Ray
     engine or a URL output (the completion record, reading the files back as the worker returns
     them, and :func:`~synth.dataset.storage.fs.commit_sample` into a local folder; an object store
-    adds its upload time). ``size``: render at ``(W, H)`` instead.
+    adds its upload time). ``size``: render at ``(W, H)`` instead; ``image_deflate``: the
+    configuration's images deflated so (:func:`with_image_deflate`).
 
     Returns
     -------
@@ -243,7 +266,7 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
 
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
                              initializer=_profiler_setup, initargs=(os.getpid(),)) as pool:
-        return pool.submit(_profile, config, count, backend, size).result()
+        return pool.submit(_profile, config, count, backend, size, image_deflate).result()
 
 
 #: Render sub-stages (:meth:`synth.render.Renderer.pass_timings`) in the profile's columns.
@@ -257,7 +280,8 @@ def _profiler_setup(parent: int) -> None:
     configure_worker(1)
 
 
-def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None) -> dict:
+def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None,
+             image_deflate: str | None = None) -> dict:
     from scenes import build_meshes
     from synth.dataset.config.parse import load_config
     from synth.dataset.engine.tasks import renderer_threads
@@ -268,6 +292,8 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
     cfg = load_config(config)
     if size is not None:
         cfg = resized(cfg, *size)
+    if image_deflate is not None:
+        cfg = with_image_deflate(cfg, image_deflate)
     timings: dict[str, float] = {}
     passes: dict[str, float] = {}
     texture = texture_cpu = commit = 0.0
@@ -289,7 +315,7 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
             texture += time.perf_counter() - t0
             texture_cpu += time.process_time() - c0
     row: dict = {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
-                 "pairs": count}
+                 "image_deflate": cfg.image_deflate or DEFLATE, "pairs": count}
     stages = ("draw", "search", "render", "photometric", "stats", "write")
     for suffix, extra in (("", texture), ("_cpu", texture_cpu)):
         for stage in stages:
