@@ -1,0 +1,43 @@
+"""``tools/gpu_check.sh`` runs its steps here too (llvmpipe), so it works before GPU time is
+spent on it: each step's output in one file, each step ending with exit status 0."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
+
+def test_gpu_check_runs_every_step_on_this_machine(tmp_path, renderer):
+    if shutil.which("timeout") is None:
+        pytest.skip("the script needs coreutils' timeout, absent here")
+    bin_dir = tmp_path / "bin"  # `stereoforge` and `python3` of this interpreter, first on PATH
+    bin_dir.mkdir()
+    (bin_dir / "stereoforge").write_text(
+        f'#!/bin/sh\nexec "{sys.executable}" -c "import sys; from synth.cli import main; '
+        f'sys.exit(main())" "$@"\n')
+    (bin_dir / "python3").write_text(f'#!/bin/sh\nexec "{sys.executable}" "$@"\n')
+    for script in bin_dir.iterdir():
+        script.chmod(0o755)
+    out = tmp_path / "out"
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}"}
+    run = subprocess.run(["bash", str(ROOT / "tools" / "gpu_check.sh"), str(out), "1", "2"],
+                         cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    steps = ["gl", "golden", "ground_truth", "bench"]
+    assert run.stdout.splitlines() == [line for line in run.stdout.splitlines()
+                                       if line.split(":")[0] in steps]
+    for step in steps:
+        text = (out / f"{step}.txt").read_text()
+        assert text.splitlines()[-1].startswith("exit status 0 after"), (step, text[-2000:])
+    assert "egl |" in (out / "gl.txt").read_text()
+    assert "| flying | 960x540 |" in (out / "dataset-stages.md").read_text()
+    assert (out / "dataset.md").is_file()

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# The GPU figures of docs/scale.md and docs/ground-truth.md in one call, each step under its own
+# time limit, each step's output in one file of OUT (GL strings, golden check, the ground truth's
+# closed-form tests, bench dataset's rates and stages).
+#
+#   bash tools/gpu_check.sh OUT [WORKERS] [COUNT]     # defaults: WORKERS 4,16, COUNT 240
+#
+# On a GPU machine prepared as ../shared/gpu/README.md says, from the project root:
+#   source .gpu/setup.sh && bash tools/gpu_check.sh "$OUT"
+# Here (llvmpipe) it runs as well, e.g. `bash tools/gpu_check.sh /tmp/gc 1,2 24`: the same
+# steps on the CPU renderer, to check the script before spending GPU time on it.
+set -u
+out=${1:?usage: tools/gpu_check.sh OUT [WORKERS] [COUNT]}
+workers=${2:-4,16}
+count=${3:-240}
+mkdir -p "$out"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+step() {  # step NAME SECONDS COMMAND...: the command's output into OUT/NAME.txt, its status last
+  local name=$1 limit=$2
+  shift 2
+  local start=$SECONDS
+  timeout --kill-after=10 "$limit" "$@" > "$out/$name.txt" 2>&1
+  local rc=$?
+  echo "exit status $rc after $((SECONDS - start)) s" >> "$out/$name.txt"
+  echo "$name: exit status $rc after $((SECONDS - start)) s"
+}
+
+gl_strings() {  # one process per backend: PyOpenGL picks its platform once per process
+  for backend in egl osmesa; do
+    python3 -c "
+import sys
+from synth.render.renderer import Renderer
+try:
+    with Renderer(64, 48, backend=sys.argv[1]) as r:
+        print(sys.argv[1], '|', r.gl_renderer, '|', r.gl_version)
+except Exception as e:
+    print(sys.argv[1], '| failed:', str(e).splitlines()[0])
+" "$backend"
+  done
+}
+export -f gl_strings
+step gl 60 bash -c gl_strings
+step golden 240 stereoforge golden check --backend egl
+step ground_truth 180 python3 -m pytest -q -p no:cacheprovider tests/synth/test_ground_truth.py
+step bench 420 stereoforge bench dataset --configs flying --size 960x540 --workers "$workers" \
+  --count "$count" --backend egl --out "$work/bench"
+cp "$work"/bench/dataset*.md "$out"/ 2>/dev/null || true
