@@ -82,7 +82,19 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     # the GL passes are parts of render, each measured (meshes includes the texture synthesis)
     parts = [prof[f"{name}_ms"] for name in ("meshes", "upload", "colour", "depth")]
     assert all(p > 0 for p in parts) and sum(parts) <= prof["render_ms"]
-    assert profile_dataset(str(path), count=1, size=(48, 30))["size"] == "48x30"
+    for suffix in ("", "_cpu"):  # the work around the GL passes
+        assert prof[f"outside_gl{suffix}_ms"] == pytest.approx(
+            prof[f"total{suffix}_ms"] - sum(prof[f"{name}{suffix}_ms"]
+                                            for name in ("upload", "colour", "depth")))
+    assert 0 < prof["outside_gl_cpu_ms"] < prof["total_cpu_ms"]
+    assert prof["image_deflate"] in ("isal", "zlib")  # the configuration's own (unset)
+    small = profile_dataset(str(path), count=1, size=(48, 30), image_deflate="stored")
+    assert (small["size"], small["image_deflate"]) == ("48x30", "stored")
+    (stored,) = bench_dataset(configs=(str(path),), count=2, workers=(1,),
+                              image_deflates=("stored",))
+    assert stored["image_deflate"] == "stored" and stored["pairs"] == 2
+    with pytest.raises(ValueError, match="image_deflate: expected one of"):
+        bench_dataset(configs=(str(path),), count=2, workers=(1,), image_deflates=("zstd",))
 
 
 @pytest.mark.gl
