@@ -3,16 +3,18 @@
 # time limit, each step's output in one file of OUT (GL strings, golden check, the ground truth's
 # closed-form tests, bench dataset's rates and stages).
 #
-#   bash tools/gpu_check.sh OUT [WORKERS] [COUNT]     # defaults: WORKERS 4,16, COUNT 240
+#   bash tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]
+#   # defaults: WORKERS 4,16, COUNT 160, DEFLATES isal,stored (the images' PNG encodings)
 #
 # On a GPU machine prepared as ../shared/gpu/README.md says, from the project root:
 #   source .gpu/setup.sh && bash tools/gpu_check.sh "$OUT"
 # Here (llvmpipe) it runs as well, e.g. `bash tools/gpu_check.sh /tmp/gc 1,2 24`: the same
 # steps on the CPU renderer, to check the script before spending GPU time on it.
 set -u
-out=${1:?usage: tools/gpu_check.sh OUT [WORKERS] [COUNT]}
+out=${1:?usage: tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]}
 workers=${2:-4,16}
-count=${3:-240}
+count=${3:-160}
+deflates=${4:-isal,stored}
 mkdir -p "$out"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -44,6 +46,6 @@ export -f gl_strings
 step gl 60 bash -c gl_strings
 step golden 240 stereoforge golden check --backend egl
 step ground_truth 180 python3 -m pytest -q -p no:cacheprovider tests/synth/test_ground_truth.py
-step bench 420 stereoforge bench dataset --configs flying --size 960x540 --workers "$workers" \
-  --count "$count" --backend egl --out "$work/bench"
+step bench 480 stereoforge bench dataset --configs flying --size 960x540 --workers "$workers" \
+  --count "$count" --image-deflate "$deflates" --backend egl --out "$work/bench"
 cp "$work"/bench/dataset*.md "$out"/ 2>/dev/null || true
