@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from matcher.io import DEFLATES
-from stereoforge.errors import ConfigError
+from stereoforge.errors import ConfigError, ParameterError
 from synth.dataset.compare import compare_datasets
 from synth.dataset.config import keys as config_keys
 from synth.dataset.config.parse import loads_config
@@ -80,3 +80,12 @@ def test_stored_images_hold_the_same_pixels_and_nothing_else_changes(fmt, tmp_pa
     c = tmp_path / "again"
     run_dataset(loads_config(_with("stored")), out=c, fmt=fmt, progress=False)
     assert not compare_datasets(b, c)
+
+
+@pytest.mark.parametrize("fmt", ["crestereo", "fsd"])
+def test_a_layout_of_jpeg_images_refuses_an_image_deflate(fmt, tmp_path):
+    with pytest.raises(ParameterError, match=r"image_deflate = 'stored' has no PNG image to "
+                                             r"encode in the .* layout, which stores its images "
+                                             r"as JPEG; drop image_deflate"):
+        run_dataset(loads_config(_with("stored")), out=tmp_path / "ds", fmt=fmt, progress=False)
+    assert not (tmp_path / "ds").exists()  # refused before any work

@@ -289,7 +289,7 @@ def run_dataset(
     disp_encoding = check_disp_encoding(fmt, disp_encoding)
     layout = get_layout(fmt)  # what the layout cannot hold is refused before any work
     layout.check_config(flow=cfg.rig.errors is not None, ground_truth=tuple(cfg.ground_truth or ()),
-                        source=str(cfg.source))
+                        source=str(cfg.source), image_deflate=cfg.image_deflate)
     layout.check_rig(cfg.rig, source=str(cfg.source))
     if shard_size is not None and not is_local(out):
         raise ParameterError(f"{out}: --format webdataset packs its shards in a local folder; "

@@ -167,8 +167,15 @@ class Layout:
                 f"truth'; set [rig] far <= {2 * fb / cap.disp_quantum:.6g} (m), or use a layout "
                 "with float disparities (--format sceneflow or middlebury)")
 
-    def check_config(self, *, flow: bool, ground_truth: tuple[str, ...], source: str) -> None:
-        """Refuse what the layout has no place for: a rig's flow, the optional ground truth."""
+    def check_config(self, *, flow: bool, ground_truth: tuple[str, ...], source: str,
+                     image_deflate: str | None = None) -> None:
+        """Refuse what the layout has no place for: a rig's flow, the optional ground truth, a
+        deflate for images it stores as JPEG."""
+        if image_deflate is not None and not self.capacity.lossless:
+            raise ParameterError(f"{source}: image_deflate = {image_deflate!r} has no PNG image to "
+                                 f"encode in the {self.title} layout, which stores its images as "
+                                 "JPEG; drop image_deflate, or use --format middlebury, kitti, "
+                                 "sceneflow or webdataset")
         if flow and not self.capacity.flow:
             raise DatasetError(f"{source}: the [rig] camera errors give each sample a flow0.flo, "
                                f"which the {self.title} layout cannot hold; use --format "
@@ -184,7 +191,8 @@ class Layout:
         """Write the layout's files of ``pair`` under ``dest`` (see the module docstring);
         ``clean`` is the pair before the sensor and photometric models (or ``pair``);
         ``image_deflate`` the deflate of the images' PNGs (:func:`matcher.io.encode_png`;
-        ``None``: its default; a layout whose images are JPEG has none to give it)."""
+        ``None``: its default; a layout whose images are JPEG refuses any other in
+        :meth:`check_config`)."""
         raise NotImplementedError
 
     def finish_files(self, names: list[str]) -> dict[str, bytes]:

@@ -62,9 +62,9 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
                                 "(see synth.write.ground_truth)"),
         "image_deflate": Key("str", None, choices=IMAGE_DEFLATES,
                              doc="deflate of the images' PNGs (matcher.io.encode_png; unset: "
-                                 "ISA-L, zlib without it); stored: no compression, ~1.6x "
-                                 "larger files, ~5 ms less per 960x540 image, bytes fixed by "
-                                 "the pixels alone"),
+                                 "ISA-L, zlib without it); stored: no compression, ~1.5x "
+                                 "larger images, ~5 ms less per 960x540 image, bytes fixed by "
+                                 "the pixels alone; not for the JPEG layouts"),
     },
     "rig": {
         "width": Key("int", 640, lo=8, hi=8192, doc="image width, pixels"),

@@ -158,7 +158,8 @@ def bench_dataset(
         layout = get_layout(name)
         for cfg in loaded:
             layout.check_config(flow=cfg.rig.errors is not None,
-                                ground_truth=tuple(cfg.ground_truth or ()), source=str(cfg.source))
+                                ground_truth=tuple(cfg.ground_truth or ()), source=str(cfg.source),
+                                image_deflate=cfg.image_deflate)
             layout.check_rig(cfg.rig, source=str(cfg.source))
     rows: list[dict] = []
     with contextlib.ExitStack() as cluster:
