@@ -663,12 +663,12 @@ def test_a_layout_1_dataset_is_refused_then_upgraded_to_the_same_bytes(reference
     _assert_same_tree(reference, old)
 
 
-def test_sample_statistics_kernel_equals_numpys_masked_reductions():
-    """The one-pass statistics of a sample give the floats numpy's masked min/max and counts
-    give (the values written into every sample.json)."""
+def test_sample_disparity_range_equals_numpys_masked_reductions():
+    """A sample's disp_min/disp_max come from one compiled pass: the floats numpy's masked
+    min/max give (the values written into every sample.json)."""
     import numpy as np
 
-    from synth.dataset.sample import _disparity_stats
+    from synth._util.ranges import finite_range
 
     rng = np.random.default_rng(3)
     for trial in range(30):
@@ -678,16 +678,13 @@ def test_sample_statistics_kernel_equals_numpys_masked_reductions():
             disp[rng.random(shape) < share * (trial % 3)] = value
         if trial == 5:
             disp[:] = np.inf  # no ground truth at all
-        mask = rng.choice(np.array([0, 128, 255], np.uint8), shape)
-        lo, hi, occluded, invalid = _disparity_stats(disp.reshape(-1), mask.reshape(-1))
+        lo, hi = finite_range(disp)
         finite = np.isfinite(disp)
         if finite.any():
             assert lo == np.min(disp, where=finite, initial=np.inf)
             assert hi == np.max(disp, where=finite, initial=-np.inf)
         else:
             assert (lo, hi) == (np.inf, -np.inf)
-        assert occluded == np.count_nonzero(mask == 128)
-        assert invalid == np.count_nonzero(mask == 0)
 
 
 def test_calib_range_kernel_equals_numpys_masked_reductions():
@@ -695,7 +692,7 @@ def test_calib_range_kernel_equals_numpys_masked_reductions():
     min/max give, over non-contiguous and float64 maps too."""
     import numpy as np
 
-    from synth.formats._ranges import finite_range
+    from synth._util.ranges import finite_range
 
     rng = np.random.default_rng(4)
     for trial in range(30):

@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher._validation import check_choice, check_ground_truth, check_occlusion_mask
+from matcher._validation import check_ground_truth, check_occlusion_mask
 from matcher.io.atomic import write_all_atomic
-from matcher.io.png import DEFLATES, KITTI_DIVISOR, encode_png, read_disparity, read_image
+from matcher.io.png import KITTI_DIVISOR, check_deflate, encode_png, read_disparity, read_image
 from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
 __all__ = ["KITTI_MAX_DISPARITY", "encode_kitti_disparity", "format_kitti_calib", "load_kitti_2015",
@@ -273,7 +273,7 @@ def write_kitti(
     if isinstance(index, (bool, np.bool_)) or not isinstance(index, (int, np.integer)) or not 0 <= index <= 999999:
         raise ValueError(f"index: expected an integer in [0, 999999], got {index!r}")
     if image_deflate is not None:
-        check_choice(image_deflate, "image_deflate", DEFLATES)
+        check_deflate(image_deflate, "image_deflate")
     left, right = check_stereo_images(left, right)
     shape = left.shape[:2]
     mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)

@@ -36,7 +36,7 @@ from matcher._validation import (check_choice, check_ground_truth, check_occlusi
 from matcher.io.atomic import write_all_atomic
 from matcher.io.calib import format_calib, read_calib
 from matcher.io.pfm import encode_pfm
-from matcher.io.png import DEFLATES, encode_png, read_disparity, read_image
+from matcher.io.png import check_deflate, encode_png, read_disparity, read_image
 from matcher.io.sample import StereoSample, check_sample_shapes, check_stereo_images, require_dir
 
 __all__ = [
@@ -264,7 +264,7 @@ def write_middlebury(
     image_deflate : {"isal", "libdeflate", "zlib", "stored"}, optional
         The deflate of the images' PNGs (``im0``, ``im1``, ``im1E``, ``im1L``;
         :func:`~matcher.io.png.encode_png`); default :func:`~matcher.io.png.deflate_for` each.
-        ``"stored"``: no compression (~1.6x larger, several times faster, bytes fixed by the
+        ``"stored"``: no compression (~1.5x larger, several times faster, bytes fixed by the
         pixels). The masks keep theirs.
 
     Returns
@@ -298,7 +298,7 @@ def write_middlebury(
     """
     gt_left, gt_right = GT_FILES[check_choice(layout, "layout", GT_FILES)]
     if image_deflate is not None:
-        check_choice(image_deflate, "image_deflate", DEFLATES)
+        check_deflate(image_deflate, "image_deflate")
     left, right = check_stereo_images(left, right)
     shape = left.shape[:2]
     mask_left = check_occlusion_mask(mask_left, "mask_left", shape=shape)

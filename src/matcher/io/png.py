@@ -55,7 +55,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from matcher._validation import check_positive
+from matcher._validation import check_choice, check_positive
 from matcher.io.pfm import read_pfm
 from stereoforge.errors import FormatError, ParameterError
 
@@ -71,6 +71,7 @@ __all__ = [
     "DEFLATES",
     "GREY_DEFLATE",
     "KITTI_DIVISOR",
+    "check_deflate",
     "decode_disparity_png",
     "deflate_for",
     "encode_png",
@@ -337,6 +338,22 @@ def _stored_zlib(data: memoryview) -> bytes:
         parts += [struct.pack("<BHH", last, size, size ^ 0xFFFF), data[start:start + size]]
     parts.append(struct.pack(">I", _adler32(data)))
     return b"".join(parts)
+
+
+def check_deflate(value: object, name: str = "deflate") -> str:
+    """``value`` if it names one of :data:`DEFLATES`, else a ``ParameterError`` naming ``name``
+    (the writers' ``image_deflate``, a dataset's key, a bench option).
+
+    Examples
+    --------
+    >>> check_deflate("stored", "image_deflate")
+    'stored'
+    >>> check_deflate("gzip", "image_deflate")
+    Traceback (most recent call last):
+    ...
+    stereoforge.errors.ParameterError: image_deflate: expected one of ['isal', 'libdeflate', 'zlib', 'stored'], got 'gzip'
+    """
+    return check_choice(value, name, DEFLATES)
 
 
 def _deflater(name: str) -> Callable[[memoryview], bytes]:

@@ -17,11 +17,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from matcher.io import atomic_write_bytes
 from stereoforge.errors import StereoforgeError
 from synth._util.json_records import json_bytes
+from synth._util.ranges import finite_range
 from synth.dataset.storage.commit import commit_local, dataset_files, returned_files, write_record
 from synth.dataset.config.parse import DatasetConfig, config_from_dict
 from synth.dataset.storage.integrity import completion_record
@@ -70,25 +70,6 @@ def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
 
 def _r(value: float | None) -> float | None:
     return None if value is None else round(float(value), 6)
-
-
-@njit(cache=True, nogil=True)
-def _disparity_stats(disp: np.ndarray, mask: np.ndarray
-                     ) -> tuple[float, float, int, int]:  # pragma: no cover - compiled
-    """``(min, max)`` of the finite values of ``disp`` (``(inf, -inf)`` if none) and the counts
-    of occluded (128) and invalid (0) codes of ``mask``, in one pass over both (numpy's
-    ``min(where=...)``/``max(where=...)`` took ~1.6 ms each on a 960x540 image; minima and
-    maxima are exact, so the values are the same)."""
-    lo, hi = np.inf, -np.inf
-    for v in disp:
-        if np.isfinite(v):
-            lo = min(lo, np.float64(v))
-            hi = max(hi, np.float64(v))
-    occluded = invalid = 0
-    for code in mask:
-        occluded += code == 128
-        invalid += code == 0
-    return lo, hi, occluded, invalid
 
 
 # --------------------------------------------------------------------------- one sample
@@ -148,9 +129,11 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     else:
         rho = edge_density(pair.left)
     degraded = dataclasses.replace(pair, left=out.left, right=out.right, **variants)
-    disp_lo, disp_hi, occluded, invalid = _disparity_stats(
-        np.ascontiguousarray(pair.disp_left).reshape(-1),
-        np.ascontiguousarray(pair.mask_left).reshape(-1))
+    # one compiled pass (numpy's masked min and max took ~1.6 ms each at 960x540; the same
+    # floats: minima and maxima are exact)
+    disp_lo, disp_hi = finite_range(pair.disp_left)
+    occluded = np.count_nonzero(pair.mask_left == 128)
+    invalid = np.count_nonzero(pair.mask_left == 0)
     has_finite = disp_lo <= disp_hi
     mask_size = pair.mask_left.size
     stats = {

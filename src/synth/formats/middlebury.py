@@ -34,7 +34,7 @@ def calib_for(pair: Any) -> dict:
     ``vmin``/``vmax`` bound the finite left and right disparities (floor/ceil); ``ndisp`` is
     ``vmax + 1`` rounded up to a multiple of 16, as Middlebury's conservative search bound.
     """
-    from synth.formats._ranges import finite_range  # numba: imported when a pair is written
+    from synth._util.ranges import finite_range  # numba: imported when a pair is written
 
     lo, hi = finite_range(pair.disp_left, pair.disp_right)
     if lo > hi:  # no finite disparity at all

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from matcher.io import DEFLATES, atomic_write_bytes, encode_png
+from matcher.io import atomic_write_bytes, check_deflate, encode_png
 from scenes import PRESETS, SceneSpec, get_preset, load_scene, scene_to_dict
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_input_file
@@ -259,9 +259,8 @@ def write_pair(
     """
     if fmt not in FORMATS:
         raise ValueError(f"unknown format {fmt!r}; valid formats: {', '.join(FORMATS)}")
-    if image_deflate is not None and image_deflate not in DEFLATES:
-        raise ValueError(f"image_deflate: expected one of {', '.join(map(repr, DEFLATES))} or "
-                         f"None, got {image_deflate!r}")
+    if image_deflate is not None:
+        check_deflate(image_deflate, "image_deflate")
     layout = get_layout(fmt)
     out = Path(out)
     if pair.flow_left is not None and not layout.capacity.flow:

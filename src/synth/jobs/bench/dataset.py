@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from matcher.io import DEFLATE
+from matcher.io import DEFLATE, check_deflate
 from synth.dataset.config.parse import resized
 from synth.formats import get_layout
 
@@ -224,12 +224,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
 def with_image_deflate(config: DatasetConfig, deflate: str) -> DatasetConfig:
     """``config`` writing its images' PNGs with ``deflate`` (a name of
     :data:`matcher.io.DEFLATES`)."""
-    from matcher.io import DEFLATES
-
-    if deflate not in DEFLATES:
-        raise ValueError(f"image_deflate: expected one of {', '.join(map(repr, DEFLATES))}, got "
-                         f"{deflate!r}")
-    return dataclasses.replace(config, image_deflate=deflate)
+    return dataclasses.replace(config, image_deflate=check_deflate(deflate, "image_deflate"))
 
 
 def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto",

@@ -1,4 +1,5 @@
-"""The range of a disparity map's finite values in one compiled pass (``calib.txt``'s bounds)."""
+"""The range of disparity maps' finite values in one compiled pass (``calib.txt``'s bounds, a
+sample's ``disp_min``/``disp_max``)."""
 
 from __future__ import annotations
 
