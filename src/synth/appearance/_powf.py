@@ -260,3 +260,136 @@ def powf(x: np.ndarray, y: float, *, pre: float = 1.0, post: float = 1.0) -> np.
     elif _scaled_powf_kernel(flat, *args, dest):
         _scaled_powf_slow(flat, *args, dest)
     return out
+
+
+_GLSL_FMA64 = """
+void two_sum(double a, double b, out double s, out double e) {
+    precise double sv = a + b;
+    precise double bv = sv - a;
+    precise double av = sv - bv;
+    precise double ev = (a - av) + (b - bv);
+    s = sv;
+    e = ev;
+}
+void two_prod(double a, double b, out double p, out double e) {  // |a|, |b| < 2^996
+    precise double ca = 134217729.0LF * a;
+    precise double ah = ca - (ca - a);
+    precise double al = a - ah;
+    precise double cb = 134217729.0LF * b;
+    precise double bh = cb - (cb - b);
+    precise double bl = b - bh;
+    precise double pv = a * b;
+    precise double ev = ((ah * bh - pv) + ah * bl + al * bh) + al * bl;
+    p = pv;
+    e = ev;
+}
+double add_odd(double a, double b) {  // a + b rounded to odd
+    double s, e;
+    two_sum(a, b, s, e);
+    uvec2 bits = unpackDouble2x32(s);
+    if (e != 0.0LF && (bits.x & 1u) == 0u) {  // inexact and even: the neighbour toward e
+        if ((e > 0.0LF) == (s > 0.0LF)) {
+            bits.y += bits.x == 0xFFFFFFFFu ? 1u : 0u;
+            bits.x += 1u;
+        } else {
+            bits.y -= bits.x == 0u ? 1u : 0u;
+            bits.x -= 1u;
+        }
+        return packDouble2x32(bits);
+    }
+    return s;
+}
+double fma64(double a, double b, double c) {  // a * b + c rounded once
+    double uh, ul, th, tl;
+    two_prod(a, b, uh, ul);
+    two_sum(c, uh, th, tl);
+    precise double v = th + add_odd(tl, ul);
+    return v;
+}
+"""
+
+
+def _glsl_double(value: float) -> str:
+    """A GLSL expression of exactly ``value`` (a float64): its bits, packed (GLSL has no
+    hexadecimal float literals, and a decimal one relies on the compiler's rounding)."""
+    bits = int(np.float64(value).view(np.uint64))
+    return f"packDouble2x32(uvec2({bits & 0xFFFFFFFF}u, {bits >> 32}u))"
+
+
+def glsl_powf() -> str:
+    """GLSL 4.00 source of ``float powf_fast(float x, float y, out bool fast)``: this module's
+    fast path in double precision (``precise``, explicit ``fma``), the same tables and steps.
+
+    ``fast`` is false where the fast path does not apply (``x`` zero excepted, whose result is
+    ``+0``): the caller then takes the C library's value instead.
+
+    GLSL's ``fma`` may be a product and a sum, each rounded (llvmpipe computes it so: one
+    float32 power in ~74 M then differed from glibc's); every fused multiply-add here is
+    ``fma64``, exact from double products and sums alone: Dekker's product split by
+    Veltkamp's constant, Knuth's TwoSum, and the rounding to odd of Boldo and Melquiond,
+    emulated on the bits. GLSL requires ``+``, ``-``, ``*`` and conversions to be correctly
+    rounded; ``precise`` forbids reassociating or fusing them.
+
+    References
+    ----------
+    S. Boldo and G. Melquiond, "Emulation of FMA and correctly rounded sums: proved algorithms
+    using rounding to odd", IEEE Transactions on Computers 57(4), 462-471, 2008.
+    T. J. Dekker, "A floating-point technique for extending the available precision",
+    Numerische Mathematik 18, 224-242, 1971.
+
+    Examples
+    --------
+    >>> source = glsl_powf()
+    >>> "float powf_fast(float x, float y, out bool fast)" in source, "fma(" in source.replace(
+    ...     "fma64(", "")
+    (True, False)
+    """
+    invc = ", ".join(_glsl_double(v) for v in _LOG2_INVC)
+    logc = ", ".join(_glsl_double(v) for v in _LOG2_LOGC)
+    tab = ", ".join(f"uvec2({int(v) & 0xFFFFFFFF}u, {int(v) >> 32}u)" for v in _EXP2_TAB)
+    a = [_glsl_double(v) for v in (_A0, _A1, _A2, _A3, _A4)]
+    c = [_glsl_double(v) for v in (_C0, _C1, _C2)]
+    return _GLSL_FMA64 + f"""
+const double POWF_INVC[16] = double[16]({invc});
+const double POWF_LOGC[16] = double[16]({logc});
+const uvec2 POWF_TAB[32] = uvec2[32]({tab});
+float powf_fast(float x, float y, out bool fast) {{
+    uint ix = floatBitsToUint(x);
+    bool normal = ix >= 0x00800000u && ix < 0x7F800000u;
+    if (!normal) ix = 0x3F800000u;
+    // log2_inline
+    uint tmp = ix - {_OFF}u;
+    uint i = (tmp >> 19) & 15u;
+    uint top = tmp & 0xFF800000u;
+    uint iz = ix - top;
+    int k = int(top) >> 23;
+    precise double z = double(uintBitsToFloat(iz));
+    precise double r = fma64(z, POWF_INVC[i], -1.0LF);
+    precise double y0 = POWF_LOGC[i] + double(k);
+    precise double r2 = r * r;
+    precise double p1 = fma64({a[0]}, r, {a[1]});
+    precise double p2 = fma64({a[2]}, r, {a[3]});
+    precise double r4 = r2 * r2;
+    precise double q = fma64({a[4]}, r, y0);
+    precise double q2 = fma64(p2, r2, q);
+    precise double ylogx = double(y) * fma64(p1, r4, q2);
+    uvec2 yb = unpackDouble2x32(ylogx);
+    fast = normal && ((yb.y >> 15) & 0xFFFFu) < {_BIG}u;
+    precise double xd = fast ? ylogx : 0.0LF;
+    // exp2_inline
+    precise double kd = xd + {_glsl_double(_SHIFT)};
+    uvec2 ki = unpackDouble2x32(kd);
+    precise double kd2 = kd - {_glsl_double(_SHIFT)};
+    precise double rr = xd - kd2;
+    uvec2 t = POWF_TAB[ki.x & 31u];
+    // t + (ki << 47), as 64-bit integers: only the high word gains (ki's low 17 bits)
+    precise double s = packDouble2x32(uvec2(t.x, t.y + (ki.x << 15)));
+    precise double z2 = fma64({c[0]}, rr, {c[1]});
+    precise double rr2 = rr * rr;
+    precise double e1 = fma64({c[2]}, rr, 1.0LF);
+    precise double e2 = fma64(z2, rr2, e1);
+    precise float v = float(e2 * s);
+    fast = fast || floatBitsToUint(x) == 0u;
+    return floatBitsToUint(x) == 0u ? 0.0 : v;
+}}
+"""
