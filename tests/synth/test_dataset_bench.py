@@ -102,7 +102,8 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     assert profile_dataset(str(path), count=1, photometric="cpu")["photometric"] == \
         "cpu (asked for)"
     assert profile_dataset(str(path), count=1, photometric="gl")["photometric"] == "gl"
-    with pytest.raises(ValueError, match="photometric: expected one of auto, gl, cpu"):
+    with pytest.raises(ValueError,
+                       match=r"photometric: expected one of \['auto', 'gl', 'cpu'\], got 'gpu'"):
         bench_dataset(configs=(str(path),), count=2, workers=(1,), photometrics=("gpu",))
 
 

@@ -211,7 +211,8 @@ def test_where_the_renderer_runs_the_models(renderer) -> None:
         else:
             assert r.photometric_engine == "gl" or r.photometric_engine.startswith(
                 "cpu (the sensor shader")
-    with pytest.raises(ValueError, match="photometric: expected one of auto, gl, cpu, got 'gpu'"):
+    with pytest.raises(ValueError,
+                       match=r"photometric: expected one of \['auto', 'gl', 'cpu'\], got 'gpu'"):
         Renderer(32, 24, backend=renderer.backend, photometric="gpu")
 
 

@@ -16,11 +16,12 @@ renderers only unless asked.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import cv2
 import numpy as np
 
-from collections.abc import Callable
-
+from stereoforge.validation import check_choice
 from synth.render.passes import compile_program, delete_framebuffer, framebuffer
 
 __all__ = ["PHOTOMETRIC_ENGINES", "SOFTWARE_RENDERERS", "SensorPass", "check_photometric_engine",
@@ -43,12 +44,11 @@ _QUANTILES = 256  # the 65536-entry noise table as a 256 x 256 texture
 
 
 def check_photometric_engine(value: object, name: str = "photometric") -> str:
-    """``value`` if it is one of :data:`PHOTOMETRIC_ENGINES`, else ``ValueError`` naming them."""
-    if not isinstance(value, str) or value not in PHOTOMETRIC_ENGINES:
-        raise ValueError(f"{name}: expected one of {', '.join(PHOTOMETRIC_ENGINES)}, got "
-                         f"{value!r} (auto: the GL pass on a GPU, the CPU on a software "
-                         "renderer; the same bytes either way)")
-    return value
+    """``value`` if it is one of :data:`PHOTOMETRIC_ENGINES`, else a ``ParameterError`` (a
+    ``ValueError``) naming them."""
+    return check_choice(value, name, PHOTOMETRIC_ENGINES,
+                        fix="auto: the GL pass on a GPU, the CPU on a software renderer; the "
+                            "same bytes either way")
 
 
 class SensorPass:

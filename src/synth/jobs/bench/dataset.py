@@ -131,8 +131,8 @@ def bench_dataset(
     Returns
     -------
     list of dict
-        ``config, size, format, image_deflate, photometric, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
-        included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
+        ``config, size, format, image_deflate, photometric, workers, pairs, seconds,
+        pairs_per_s`` (whole run, start-up included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
         without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
         ``pairs_per_cpu_s`` (pairs per CPU second of this process and its descendants, all
         threads: workers, the engine's fork server, the GL probe; robust to other load on the
