@@ -3,20 +3,18 @@
 # time limit, each step's output in one file of OUT (GL strings, golden check, the ground truth's
 # closed-form tests, bench dataset's rates and stages).
 #
-#   bash tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES] [PHOTOMETRIC]
-#   # defaults: WORKERS 4,16, COUNT 160, DEFLATES isal,stored (the images' PNG encodings),
-#   # PHOTOMETRIC cpu,gl (where the gamma, noise and rounding of blurred views run)
+#   bash tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]
+#   # defaults: WORKERS 4,16, COUNT 160, DEFLATES isal,stored (the images' PNG encodings)
 #
 # On a GPU machine prepared as ../shared/gpu/README.md says, from the project root:
 #   source .gpu/setup.sh && bash tools/gpu_check.sh "$OUT"
 # Here (llvmpipe) it runs as well, e.g. `bash tools/gpu_check.sh /tmp/gc 1,2 24`: the same
 # steps on the CPU renderer, to check the script before spending GPU time on it.
 set -u
-out=${1:?usage: tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES] [PHOTOMETRIC]}
+out=${1:?usage: tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]}
 workers=${2:-4,16}
 count=${3:-160}
 deflates=${4:-isal,stored}
-photometric=${5:-cpu,gl}
 mkdir -p "$out"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -38,10 +36,7 @@ import sys
 from synth.render.renderer import Renderer
 try:
     with Renderer(64, 48, backend=sys.argv[1]) as r:
-        print(sys.argv[1], '|', r.gl_renderer, '|', r.gl_version, '| photometric (auto):',
-              r.photometric_engine)
-    with Renderer(64, 48, backend=sys.argv[1], photometric='gl') as r:
-        print(sys.argv[1], '| photometric (gl):', r.photometric_engine)
+        print(sys.argv[1], '|', r.gl_renderer, '|', r.gl_version)
 except Exception as e:
     print(sys.argv[1], '| failed:', str(e).splitlines()[0])
 " "$backend"
@@ -52,6 +47,5 @@ step gl 60 bash -c gl_strings
 step golden 240 stereoforge golden check --backend egl
 step ground_truth 180 python3 -m pytest -q -p no:cacheprovider tests/synth/test_ground_truth.py
 step bench 480 stereoforge bench dataset --configs flying --size 960x540 --workers "$workers" \
-  --count "$count" --image-deflate "$deflates" --photometric "$photometric" --backend egl \
-  --out "$work/bench"
+  --count "$count" --image-deflate "$deflates" --backend egl --out "$work/bench"
 cp "$work"/bench/dataset*.md "$out"/ 2>/dev/null || true

@@ -95,16 +95,6 @@ def test_bench_and_profile_rows(tmp_path, renderer):
     assert stored["image_deflate"] == "stored" and stored["pairs"] == 2
     with pytest.raises(ValueError, match="image_deflate: expected one of"):
         bench_dataset(configs=(str(path),), count=2, workers=(1,), image_deflates=("zstd",))
-    # where the photometric models ran: asked for per run, the engine taken in the profile
-    cpu, gl = bench_dataset(configs=(str(path),), count=2, workers=(1,),
-                            photometrics=("cpu", "gl"))
-    assert (cpu["photometric"], gl["photometric"]) == ("cpu", "gl")
-    assert profile_dataset(str(path), count=1, photometric="cpu")["photometric"] == \
-        "cpu (asked for)"
-    assert profile_dataset(str(path), count=1, photometric="gl")["photometric"] == "gl"
-    with pytest.raises(ValueError,
-                       match=r"photometric: expected one of \['auto', 'gl', 'cpu'\], got 'gpu'"):
-        bench_dataset(configs=(str(path),), count=2, workers=(1,), photometrics=("gpu",))
 
 
 @pytest.mark.gl

@@ -27,14 +27,6 @@ one pass (:func:`_noisy_kernel`): per value ``rint(fma(x, gain, noise + bias))``
 saturated to uint8, the arithmetic of OpenCV's ``addWeighted(x, gain, noise, 1, bias,
 dtype=CV_8U)`` (its float32 multiply-add, round half to even) that this pass replaces, without
 the noise and gamma arrays in memory (tests/synth/test_photometric_kernel.py compares the two).
-
-Steps 2-5 of a blurred colour view (the power of ~1.5 M float32 values per 960x540 view, the
-dearest model) can run in a GL pass instead (``offload``: :class:`synth.render.Renderer`'s
-``sensor_pass``, the fragment shader of :func:`sensor_shader`): the same float32 and float64
-operations in the same order, ``precise`` and with explicit ``fma``, on the words this module
-draws, so the same bytes (a renderer uses it only after it has reproduced this module's bytes
-on its driver). Where a value leaves ``powf``'s fast path the view is redone here, with the same
-noise.
 """
 
 from __future__ import annotations
@@ -42,7 +34,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import asdict, dataclass
-from typing import Any, Mapping, NamedTuple, Protocol
+from typing import Any, Mapping, NamedTuple
 
 import cv2
 import numpy as np
@@ -50,10 +42,9 @@ from numba import njit
 
 from stereoforge.errors import ParameterTypeError
 from stereoforge.validation import check_int, check_keys, check_real, check_type, describe, fail
-from synth.appearance._powf import fma, glsl_powf, powf
+from synth.appearance._powf import fma, powf
 
-__all__ = ["PhotometricParams", "PhotometricPair", "SensorOffload", "apply_photometric",
-           "gaussian_noise", "sensor_shader"]
+__all__ = ["PhotometricParams", "PhotometricPair", "apply_photometric", "gaussian_noise"]
 
 #: Random bits per noise value: the quantile table has ``2**NOISE_BITS`` entries.
 _NOISE_BITS = 16
@@ -226,16 +217,10 @@ def _noisy_uint8(image: np.ndarray, lut: np.ndarray | None, gain: float, bias: f
     """``round(lut[image] * gain + bias + gaussian_noise(image.shape, sigma, rng=rng))`` clipped
     to uint8 (``lut=None``: ``image`` itself, float32) in one pass; draws what
     :func:`gaussian_noise` draws."""
-    return _noisy_words(image, lut, gain, bias, _noise_table(sigma),
-                        _noise_words(image.size, rng))
-
-
-def _noisy_words(image: np.ndarray, lut: np.ndarray | None, gain: float, bias: float,
-                 table: np.ndarray, words: np.ndarray) -> np.ndarray:
-    """:func:`_noisy_uint8` on drawn ``words`` (uint16, one per value) into ``table``."""
     out = np.empty(image.shape, np.uint8)
     flat = np.ascontiguousarray(image).reshape(-1)
-    args = (table, words, np.float32(gain), np.float32(bias), out.reshape(-1))
+    args = (_noise_table(sigma), _noise_words(flat.size, rng), np.float32(gain),
+            np.float32(bias), out.reshape(-1))
     if lut is None:
         _noisy_kernel(flat, *args)
     else:
@@ -283,144 +268,8 @@ def _to_uint8(img: np.ndarray, gain: float, bias: float) -> np.ndarray:
     return out.astype(np.uint8)
 
 
-class SensorOffload(Protocol):
-    """What runs steps 2-5 of a blurred colour view elsewhere (:func:`apply_photometric`'s
-    ``offload``; :class:`synth.render.photometric_pass.SensorPass` in a GL pass)."""
-
-    def sensor(self, image: np.ndarray, *, gamma: float, gain: float, bias: float,
-               quantiles: np.ndarray | None, words: np.ndarray | None) -> np.ndarray | None:
-        """``image`` (H, W, 3) float32 through the gamma (``gamma == 1``: none), ``gain`` and
-        ``bias``, the noise ``quantiles[words]`` (``None``: no noise) and rounding to uint8, as
-        this module computes them; ``None`` where a value left ``powf``'s fast path."""
-
-
-def sensor_shader() -> str:
-    """GLSL 4.00 fragment shader of steps 2-5 for a float32 colour view, one fragment per pixel.
-
-    Inputs: ``image`` (``RGB32F``, the view's values, row ``r`` at texel row ``r``), ``words``
-    (``RGB16UI``, the noise's words), ``quantiles`` (``R32F``, 256 x 256: word ``k`` at texel
-    ``(k & 255, k >> 8)``), the uniforms ``use_gamma``, ``use_noise``, ``gamma``, ``pre``
-    (``float32(1 / 255)``), ``gain`` and ``bias``. Output (``RGBA8UI``): the three uint8 values
-    and, in alpha, 1 where a value left ``powf``'s fast path (0 elsewhere). Every operation is
-    the float32 or float64 one of the CPU path, in its order: the gamma's products and
-    power, then the noisy rounding (``rint(fma(x, gain, noise + bias))``, the fused multiply-add computed
-    exactly in double precision) or, without noise,
-    ``rint(x * gain + bias)``, saturated.
-
-    Examples
-    --------
-    >>> source = sensor_shader()
-    >>> source.startswith("#version 400 core"), "out uvec4 out_value" in source
-    (True, True)
-    """
-    return """#version 400 core
-uniform sampler2D image;
-uniform usampler2D words;
-uniform sampler2D quantiles;
-uniform bool use_gamma;
-uniform bool use_noise;
-uniform float gamma;
-uniform float pre;
-uniform float gain;
-uniform float bias;
-layout(location = 0) out uvec4 out_value;
-""" + glsl_powf() + """
-// fma(a, b, c) of float32 values rounded once, without GLSL's fma (which an implementation may
-// compute as a product and a sum: llvmpipe does): the product is exact in double, TwoSum gives
-// the sum's rounding error, and a double result exactly midway between two floats is decided by
-// that error's sign.
-float fma32(float a, float b, float c) {
-    precise double p = double(a) * double(b);
-    precise double s = p + double(c);
-    precise double bv = s - p;
-    precise double av = s - bv;
-    precise double err = (p - av) + (double(c) - bv);
-    float f = float(s);
-    precise double back = double(f);
-    if (err != 0.0LF && back != s && f != 0.0) {
-        uint bits = floatBitsToUint(f);
-        float other = uintBitsToFloat(abs(s) > abs(back) ? bits + 1u : bits - 1u);
-        precise double to_other = double(other) - s;
-        precise double to_f = s - back;
-        if (abs(to_other) == abs(to_f) && (err > 0.0LF) == (to_other > 0.0LF)) {
-            f = other;
-        }
-    }
-    return f;
-}
-void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
-    vec3 x = texelFetch(image, p, 0).rgb;
-    uvec3 w = use_noise ? texelFetch(words, p, 0).rgb : uvec3(0u);
-    bool all_fast = true;
-    uvec3 o;
-    for (int c = 0; c < 3; ++c) {
-        precise float g = x[c];
-        if (use_gamma) {
-            bool fast;
-            precise float v = g * pre;
-            precise float pw = powf_fast(v, gamma, fast);
-            g = pw * 255.0;
-            all_fast = all_fast && fast;
-        }
-        precise float q;
-        if (use_noise) {
-            precise float n = texelFetch(quantiles, ivec2(w[c] & 255u, w[c] >> 8), 0).r;
-            precise float nb = n + bias;
-            q = roundEven(fma32(g, gain, nb));
-        } else {
-            precise float m = g * gain;
-            precise float mb = m + bias;
-            q = roundEven(mb);
-        }
-        o[c] = uint(min(max(q, 0.0), 255.0));
-    }
-    out_value = uvec4(o, all_fast ? 0u : 1u);
-}
-"""
-
-
-def _offloaded(offload: SensorOffload, image: np.ndarray, params: PhotometricParams,
-               gain: float, bias: float, rng: np.random.Generator) -> np.ndarray:
-    """Steps 2-5 of one blurred colour view by ``offload``, with the words and order of the
-    CPU path; the CPU path on the same words where ``offload`` declines."""
-    table = words = None
-    if params.noise_sigma > 0:
-        table, words = _noise_table(params.noise_sigma), _noise_words(image.size, rng)
-    out = offload.sensor(image, gamma=params.gamma, gain=gain, bias=bias, quantiles=table,
-                         words=words)
-    if out is not None:
-        return out
-    if params.gamma != 1.0:
-        image = _gamma(image, params.gamma)
-    if words is None:
-        return _to_uint8(image, gain, bias)
-    return _noisy_words(image, None, gain, bias, table, words)
-
-
-def _steps_2_to_5(images: list[np.ndarray], params: PhotometricParams,
-                  gains: tuple[tuple[float, float], ...],
-                  rng: np.random.Generator) -> list[np.ndarray]:
-    """Gamma, gain and bias, noise and rounding of both views (uint8, or float32 if blurred)."""
-    lut = None  # a gamma without blur: the same float32 formula, once per grey level
-    if params.gamma != 1.0:
-        if params.blur_sigma > 0:
-            images = [_gamma(img, params.gamma) for img in images]
-        else:
-            lut = _gamma(np.arange(256, dtype=np.float32), params.gamma)
-    if params.noise_sigma > 0:  # left's noise drawn first, then right's
-        if lut is None and images[0].dtype == np.uint8:
-            lut = np.arange(256, dtype=np.float32)  # uint8 -> float32, exactly
-        return [_noisy_uint8(img, lut, g, b, params.noise_sigma, rng)
-                for img, (g, b) in zip(images, gains)]
-    if lut is not None:
-        images = [cv2.LUT(img, lut) for img in images]
-    return [_to_uint8(img, g, b) for img, (g, b) in zip(images, gains)]
-
-
 def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricParams, *,
-                      rng: np.random.Generator | int | None,
-                      offload: SensorOffload | None = None) -> PhotometricPair:
+                      rng: np.random.Generator | int | None) -> PhotometricPair:
     """Apply the photometric models to a pair (see the module docstring for the order).
 
     Parameters
@@ -430,8 +279,6 @@ def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricPa
     params : PhotometricParams
     rng : numpy.random.Generator, int or None
         Source of the noise (``np.random.default_rng(rng)``; see :func:`gaussian_noise`).
-    offload : SensorOffload, optional
-        Runs steps 2-5 of blurred colour views (a renderer's ``sensor_pass``); the same bytes.
 
     Returns
     -------
@@ -463,14 +310,24 @@ def apply_photometric(left: np.ndarray, right: np.ndarray, params: PhotometricPa
         return PhotometricPair(left, right)
     rng = np.random.default_rng(rng)
     images = [left, right]  # uint8 until a model needs floats
-    gains = ((1.0, 0.0), (params.gain, params.bias))
+    lut = None  # a gamma without blur: the same float32 formula, once per grey level
     if params.blur_sigma > 0:
         images = [_blur(img.astype(np.float32), params.blur_sigma) for img in images]
-    if offload is not None and params.blur_sigma > 0 and left.ndim == 3:
-        out = [_offloaded(offload, img, params, g, b, rng)  # left's noise drawn first
+    if params.gamma != 1.0:
+        if params.blur_sigma > 0:
+            images = [_gamma(img, params.gamma) for img in images]
+        else:
+            lut = _gamma(np.arange(256, dtype=np.float32), params.gamma)
+    gains = ((1.0, 0.0), (params.gain, params.bias))
+    if params.noise_sigma > 0:  # left's noise drawn first, then right's
+        if lut is None and images[0].dtype == np.uint8:
+            lut = np.arange(256, dtype=np.float32)  # uint8 -> float32, exactly
+        out = [_noisy_uint8(img, lut, g, b, params.noise_sigma, rng)
                for img, (g, b) in zip(images, gains)]
     else:
-        out = _steps_2_to_5(images, params, gains, rng)
+        if lut is not None:
+            images = [cv2.LUT(img, lut) for img in images]
+        out = [_to_uint8(img, g, b) for img, (g, b) in zip(images, gains)]
     if params.jpeg_quality > 0:
         out = [_jpeg(img, params.jpeg_quality) for img in out]
     return PhotometricPair(out[0], out[1])

@@ -107,16 +107,11 @@ def bench_paper_cmd(out) -> None:
               help="Comma-separated deflates of the images' PNGs (the configurations' "
                    "image_deflate: isal, libdeflate, zlib, stored), each measured in the same "
                    "run; default: each configuration's own.")
-@click.option("--photometric", "photometric_text", default="auto", show_default=True,
-              metavar="NAMES",
-              help="Comma-separated places of the photometric models' gamma, noise and rounding "
-                   "of blurred views (auto, gl, cpu: the renderer's photometric; the same "
-                   "bytes), each measured in the same run; auto: the GL pass on a GPU only.")
 @backend_option
 @engine_option
 @address_option
 def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text, deflates_text,
-                      photometric_text, backend, engine, address) -> None:
+                      backend, engine, address) -> None:
     """Dataset pairs/s with 1 and 2 workers (writing included), scaling, time for 35,454 pairs.
 
     With --engine ray: a local Ray on 127.0.0.1 per run, or the cluster at --address; the actors
@@ -147,24 +142,16 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text
         if not deflates or not set(deflates) <= set(DEFLATES):
             fail(ValueError(f"--image-deflate: expected names among {', '.join(DEFLATES)}, got "
                             f"{deflates_text!r}"))
-    from synth.render.photometric_pass import PHOTOMETRIC_ENGINES
-
-    photometrics = [p.strip() for p in photometric_text.split(",") if p.strip()]
-    if not photometrics or not set(photometrics) <= set(PHOTOMETRIC_ENGINES):
-        fail(ValueError(f"--photometric: expected names among {', '.join(PHOTOMETRIC_ENGINES)}, "
-                        f"got {photometric_text!r}"))
     rows = bench_dataset(configs=names, count=count, workers=workers,
                          backend=backend, progress=True, size=sizes[0], engine=engine,
-                         address=address, formats=formats, image_deflates=deflates,
-                         photometrics=photometrics)
+                         address=address, formats=formats, image_deflates=deflates)
     click.echo(write_table(rows, Path(out), "dataset"))
     from synth.jobs.bench.dataset import profile_dataset
 
     # where one worker's time goes, per stage (docs/scale.md builds its estimates on it)
     stages = [profile_dataset(name, count=count, backend=backend, size=sizes[0],
-                              image_deflate=deflate, photometric=photometric)
-              for name in dict.fromkeys(names) for deflate in deflates
-              for photometric in photometrics]
+                              image_deflate=deflate)
+              for name in dict.fromkeys(names) for deflate in deflates]
     click.echo(write_table(stages, Path(out), "dataset-stages"))
 
 

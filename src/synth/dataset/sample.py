@@ -38,7 +38,6 @@ from synth.dataset.config.sampling import (
 from synth.formats import get_layout
 from synth.write.export import write_pair
 from synth.appearance.photometric import apply_photometric
-from synth.render.photometric_pass import check_photometric_engine
 from synth.appearance.texture_control import edge_density, match_edge_density
 
 __all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw"]
@@ -116,16 +115,14 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     lap("search")
     pair = render_draw(config, draw, scene, renderer)
     lap("render")
-    offload = getattr(renderer, "sensor_pass", None)  # a GL pass, on a GPU: the same bytes
     out = apply_photometric(pair.left, pair.right, draw.photometric,
-                            rng=stream(draw.seed, STREAM_PHOTOMETRIC), offload=offload)
+                            rng=stream(draw.seed, STREAM_PHOTOMETRIC))
     variants = {}  # the right-view variants under the same sensor model, their own noise
     for name, noise in (("right_exposure", STREAM_EXPOSURE_NOISE),
                         ("right_lighting", STREAM_LIGHTING_NOISE)):
         if getattr(pair, name) is not None:
             variants[name] = apply_photometric(pair.left, getattr(pair, name), draw.photometric,
-                                               rng=stream(draw.seed, noise),
-                                               offload=offload).right
+                                               rng=stream(draw.seed, noise)).right
     lap("photometric")
     if search is not None and np.array_equal(search.left, pair.left):
         rho = search.edge_density  # the search measured this very image: skip a second Canny
@@ -183,13 +180,10 @@ class SampleTask:
 
     preload = ("synth.pair",)  # imported once by the engine's fork server for every worker
 
-    def __init__(self, config: DatasetConfig, out: Path | None, fmt: str, backend: str, *,
-                 photometric: str = "auto") -> None:
+    def __init__(self, config: DatasetConfig, out: Path | None, fmt: str, backend: str) -> None:
         self.config_dict = config.to_dict()
         self.source = config.source
         self.out, self.fmt, self.backend = None if out is None else Path(out), fmt, backend
-        # the workers' Renderer(photometric=...): the same bytes
-        self.photometric = check_photometric_engine(photometric)
         self.width, self.height = config.rig.width, config.rig.height
         self._config: DatasetConfig | None = config
 

@@ -40,19 +40,11 @@ from synth.render.context import open_context
 from synth.render.meshes import as_meshes, check_depth_range
 from synth.render.labels import LabelPass
 from synth.render.passes import GLScene, Passes
-from synth.render.photometric_pass import (
-    PHOTOMETRIC_ENGINES,
-    SOFTWARE_RENDERERS,
-    SensorPass,
-    check_photometric_engine,
-    open_sensor_pass,
-)
 
 if TYPE_CHECKING:
     from synth.camera.rig import StereoRig
 
-__all__ = ["GLBackendError", "Renderer", "ViewRender", "ViewLabels", "BACKENDS",
-           "PHOTOMETRIC_ENGINES", "resolve_backend"]
+__all__ = ["GLBackendError", "Renderer", "ViewRender", "ViewLabels", "BACKENDS", "resolve_backend"]
 
 
 @dataclass(frozen=True)
@@ -146,12 +138,6 @@ class Renderer:
         several processes already share the cores. Images do not depend on it.
         The driver reads it once per process, at the first renderer: a later
         renderer asking for another value raises ``ValueError``.
-    photometric : {"auto", "gl", "cpu"}
-        Where the gamma, gain and bias, noise and rounding of blurred colour views run
-        (:attr:`sensor_pass`): ``"gl"`` in a GL pass, ``"cpu"`` on the CPU, ``"auto"`` in the GL
-        pass on a hardware renderer and on the CPU on a software one (llvmpipe: there the pass
-        costs more). The bytes are the same: the pass is used only after it has reproduced the
-        CPU's on a reference pair here (:func:`synth.render.photometric_pass.open_sensor_pass`).
 
     Raises
     ------
@@ -173,14 +159,10 @@ class Renderer:
     """
 
     def __init__(self, width: int, height: int, *, backend: str = "auto",
-                 probe: bool = True, threads: int | None = None,
-                 photometric: str = "auto") -> None:
+                 probe: bool = True, threads: int | None = None) -> None:
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive int, got {value!r}")
-        self.photometric = check_photometric_engine(photometric)
-        self._sensor: SensorPass | None = None
-        self._sensor_reason: str | None = None  # None: not decided yet (the first use decides)
         check_backend_name(backend)
         check_threads(threads)
         refuse_late_threads(threads)
@@ -230,9 +212,6 @@ class Renderer:
         self._held.clear()
         if self._labels is not None:
             self._labels.delete()
-        if self._sensor is not None:
-            self._sensor.delete()
-            self._sensor = None
         self._passes.delete()
         self._context.destroy()  # only ours: the EGL display, shared by all, stays initialised
         self._closed = True
@@ -240,30 +219,6 @@ class Renderer:
     def _check_open(self) -> None:
         if self._closed:
             raise RuntimeError("this Renderer is closed; open a new one (use it as a `with` block)")
-
-    # -------------------------------------------------------------- photometric models
-    @property
-    def sensor_pass(self) -> SensorPass | None:
-        """The GL pass of the photometric models' per-value steps for blurred colour views
-        (``offload`` of :func:`synth.appearance.photometric.apply_photometric`), or ``None``
-        where this renderer leaves them to the CPU (:attr:`photometric_engine` says why).
-        Made at the first use."""
-        self._check_open()
-        if self._sensor_reason is None:
-            software = any(word in self.gl_renderer.lower() for word in SOFTWARE_RENDERERS)
-            if self.photometric == "cpu":
-                self._sensor_reason = "asked for"
-            elif self.photometric == "auto" and software:
-                self._sensor_reason = "a software renderer"
-            else:
-                self._sensor, self._sensor_reason = open_sensor_pass(self._context.make_current)
-        return self._sensor
-
-    @property
-    def photometric_engine(self) -> str:
-        """``"gl"`` where :attr:`sensor_pass` is a GL pass, else ``"cpu"`` and the reason
-        (e.g. ``"cpu (a software renderer)"``)."""
-        return "gl" if self.sensor_pass is not None else f"cpu ({self._sensor_reason})"
 
     # -------------------------------------------------------------- profiling
     @contextmanager

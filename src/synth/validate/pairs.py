@@ -110,8 +110,7 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     right = (pair.right_lighting if pair.right_lighting is not None
              else pair.right_exposure if pair.right_exposure is not None else pair.right)
     images = apply_photometric(pair.left, right, draw.photometric,
-                               rng=stream(draw.seed, STREAM_PHOTOMETRIC),
-                               offload=getattr(renderer, "sensor_pass", None))
+                               rng=stream(draw.seed, STREAM_PHOTOMETRIC))
     return pair, images, scene, draw
 
 

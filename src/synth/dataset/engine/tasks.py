@@ -69,8 +69,7 @@ class Task(Protocol):
     """What :func:`run_tasks` runs (see the module docstring).
 
     It may also have a ``preload`` attribute: a tuple of module names (free of GL) that worker
-    processes need, imported once by the fork server, and a ``photometric`` one, the workers'
-    ``Renderer(photometric=...)`` (default ``"auto"``).
+    processes need, imported once by the fork server.
     """
 
     width: int
@@ -267,12 +266,6 @@ def _ready() -> None:
     """No-op task: submitting one per worker starts the processes early."""
 
 
-def _photometric(task: Task) -> str:
-    """Where the task's renderers run the photometric models' GL-able steps (``Renderer``'s
-    ``photometric``; a task without the attribute: ``"auto"``)."""
-    return getattr(task, "photometric", "auto")
-
-
 def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
     renderer = _WORKER.get("renderer")
     if renderer is None:
@@ -282,7 +275,7 @@ def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
         # the parent resolved the backend on this machine: no second probe per worker
         renderer = _WORKER["renderer"] = Renderer(
             task.width, task.height, backend=backend, probe=False,
-            threads=renderer_threads(_WORKER["threads"]), photometric=_photometric(task))
+            threads=renderer_threads(_WORKER["threads"]))
     return index, _WORKER["task"](index, renderer)
 
 
@@ -290,8 +283,7 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
     if workers == 1:
         from synth.render.renderer import Renderer
 
-        with Renderer(task.width, task.height, backend=task.backend,
-                      photometric=_photometric(task)) as renderer:
+        with Renderer(task.width, task.height, backend=task.backend) as renderer:
             for index in indices:
                 yield index, task(index, renderer)
         return
@@ -327,7 +319,7 @@ class _RayWorker:
         configure_worker(1)  # num_cpus=1: one core, as a local worker of a full machine
         self.task = task
         self.renderer = Renderer(task.width, task.height, backend=task.backend,
-                                 threads=renderer_threads(1), photometric=_photometric(task))
+                                 threads=renderer_threads(1))
 
     def ready(self) -> None:
         """Returns once ``__init__`` ran (the renderer is open)."""

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import itertools
 import os
 import tempfile
 import time
@@ -27,7 +26,6 @@ from typing import TYPE_CHECKING, Any
 from matcher.io import DEFLATE, check_deflate
 from synth.dataset.config.parse import resized
 from synth.formats import get_layout
-from synth.render.photometric_pass import check_photometric_engine
 
 if TYPE_CHECKING:
     from synth.dataset.config.parse import DatasetConfig
@@ -42,7 +40,6 @@ class _Stamped:
     def __init__(self, task: Any) -> None:
         self.task = task
         self.width, self.height, self.backend = task.width, task.height, task.backend
-        self.photometric = getattr(task, "photometric", "auto")
         self.preload = (type(task).__module__, *getattr(task, "preload", ()))
 
     def __call__(self, index: int, renderer: Any) -> dict:
@@ -93,7 +90,6 @@ def bench_dataset(
     address: str | None = None,
     formats: Sequence[str] = ("middlebury",),
     image_deflates: Sequence[str | None] = (None,),
-    photometrics: Sequence[str] = ("auto",),
 ) -> list[dict]:
     """Pairs per second of whole dataset runs, per configuration, layout and worker count.
 
@@ -123,16 +119,12 @@ def bench_dataset(
     image_deflates : sequence of str or None
         The configurations' ``image_deflate`` (the deflate of the images' PNGs,
         :func:`matcher.io.encode_png`), each run in turn; ``None``: the configuration's own.
-    photometrics : sequence of str
-        The workers' ``Renderer(photometric=...)`` (``"auto"``, ``"gl"``, ``"cpu"``: where the
-        gamma, gain and bias, noise and rounding of blurred views run; the same bytes), each
-        run in turn.
 
     Returns
     -------
     list of dict
-        ``config, size, format, image_deflate, photometric, workers, pairs, seconds,
-        pairs_per_s`` (whole run, start-up included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
+        ``config, size, format, image_deflate, workers, pairs, seconds, pairs_per_s`` (whole run, start-up
+        included), ``steady_pairs_per_s`` (between the first and the last completion, i.e.
         without start-up), ``startup_s`` (``seconds - pairs / steady_pairs_per_s``) and
         ``pairs_per_cpu_s`` (pairs per CPU second of this process and its descendants, all
         threads: workers, the engine's fork server, the GL probe; robust to other load on the
@@ -157,8 +149,6 @@ def bench_dataset(
     from synth.dataset.engine.tasks import check_engine
 
     check_engine(engine, workers=min(workers, default=1), address=address)
-    for photometric in photometrics:
-        check_photometric_engine(photometric)
     loaded = [load_config(name) for name in configs]  # every error before the first run
     if size is not None:
         loaded = [resized(cfg, *size) for cfg in loaded]
@@ -177,14 +167,14 @@ def bench_dataset(
             from synth.dataset.engine.ray_driver import ray_connection
 
             cluster.enter_context(ray_connection(address))
-        for cfg, photometric in itertools.product(loaded, photometrics):
+        for cfg in loaded:
             for layout_name in formats:
                 for w in workers:
                     # cold: the first multi-worker run of this call also starts the worker server
                     cold = engine == "local" and w > 1 and not any(
                         r["workers"] > 1 for r in rows)
                     rows.append(_bench_run(cfg, count, w, backend, engine, address, cold,
-                                           layout_name, photometric))
+                                           layout_name))
                 first = rows[-len(workers)]
                 for row in rows[-len(workers):]:
                     row["efficiency"] = (row["steady_pairs_per_s"] / first["steady_pairs_per_s"]
@@ -193,8 +183,7 @@ def bench_dataset(
 
 
 def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str,
-               address: str | None, cold: bool, fmt: str = "middlebury",
-               photometric: str = "auto") -> dict:
+               address: str | None, cold: bool, fmt: str = "middlebury") -> dict:
     """One run of ``count`` samples of ``cfg`` on ``w`` workers: a row of :func:`bench_dataset`
     (``efficiency`` is filled in by the caller)."""
     from synth.dataset.engine.tasks import run_tasks
@@ -202,8 +191,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, fmt, backend,
-                                   photometric=photometric))
+        task = _Stamped(SampleTask(cfg, None if engine == "ray" else out, fmt, backend))
         cpu0 = _cpu_seconds()
         t0 = time.perf_counter()
         done, stamps, driver = [], [], []
@@ -221,8 +209,7 @@ def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str
     steady = (count - w) / (done[-1] - done[w - 1]) if count > w else float("nan")
     driver_ms = 1e3 * (driver[-1] - driver[w - 1]) / (count - w) if count > w else float("nan")
     return {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}", "format": fmt,
-            "image_deflate": cfg.image_deflate or DEFLATE, "photometric": photometric,
-            "engine": engine, "workers": w,
+            "image_deflate": cfg.image_deflate or DEFLATE, "engine": engine, "workers": w,
             "pairs": count, "seconds": seconds,
             "pairs_per_s": count / seconds, "steady_pairs_per_s": steady,
             "startup_s": seconds - count / steady,
@@ -242,7 +229,7 @@ def with_image_deflate(config: DatasetConfig, deflate: str) -> DatasetConfig:
 
 def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "auto",
                     size: tuple[int, int] | None = None,
-                    image_deflate: str | None = None, photometric: str = "auto") -> dict:
+                    image_deflate: str | None = None) -> dict:
     """Milliseconds per pair in each stage of one worker (after one warm-up sample).
 
     Measured in a fresh child process set up like one worker of a run that gives each worker
@@ -261,15 +248,12 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
     engine or a URL output (the completion record, reading the files back as the worker returns
     them, and :func:`~synth.dataset.storage.fs.commit_sample` into a local folder; an object store
     adds its upload time). ``size``: render at ``(W, H)`` instead; ``image_deflate``: the
-    configuration's images deflated so (:func:`with_image_deflate`); ``photometric``: the
-    renderer's (:class:`synth.render.Renderer`), whose choice the ``photometric`` column shows
-    (``gl``, or ``cpu`` and why).
+    configuration's images deflated so (:func:`with_image_deflate`).
 
     Returns
     -------
     dict
-        ``config``, ``size``, ``image_deflate``, ``photometric``, ``pairs``, one
-        ``<stage>_ms`` entry per stage
+        ``config``, ``size``, ``image_deflate``, ``pairs``, one ``<stage>_ms`` entry per stage
         (wall time), ``total_ms`` and ``outside_gl_ms`` (``total_ms`` less ``upload``,
         ``colour`` and ``depth``: the work around the GL passes), and the same in CPU time of
         the worker, all threads (``<stage>_cpu_ms``, ``total_cpu_ms``, ``outside_gl_cpu_ms``).
@@ -279,8 +263,7 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
 
     with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
                              initializer=_profiler_setup, initargs=(os.getpid(),)) as pool:
-        return pool.submit(_profile, config, count, backend, size, image_deflate,
-                           photometric).result()
+        return pool.submit(_profile, config, count, backend, size, image_deflate).result()
 
 
 #: Render sub-stages (:meth:`synth.render.Renderer.pass_timings`) in the profile's columns.
@@ -295,7 +278,7 @@ def _profiler_setup(parent: int) -> None:
 
 
 def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None,
-             image_deflate: str | None = None, photometric: str = "auto") -> dict:
+             image_deflate: str | None = None) -> dict:
     from scenes import build_meshes
     from synth.dataset.config.parse import load_config
     from synth.dataset.engine.tasks import renderer_threads
@@ -312,9 +295,8 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
     passes: dict[str, float] = {}
     texture = texture_cpu = commit = 0.0
     with Renderer(cfg.rig.width, cfg.rig.height, backend=backend,
-                  threads=renderer_threads(1), photometric=photometric) as renderer, \
+                  threads=renderer_threads(1)) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
-        engine = renderer.photometric_engine  # the GL pass made and checked before the timing
         produce_sample(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
         (Path(tmp) / "out").mkdir()
         for i in range(count):
@@ -330,8 +312,7 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
             texture += time.perf_counter() - t0
             texture_cpu += time.process_time() - c0
     row: dict = {"config": cfg.name, "size": f"{cfg.rig.width}x{cfg.rig.height}",
-                 "image_deflate": cfg.image_deflate or DEFLATE, "photometric": engine,
-                 "pairs": count}
+                 "image_deflate": cfg.image_deflate or DEFLATE, "pairs": count}
     stages = ("draw", "search", "render", "photometric", "stats", "write")
     for suffix, extra in (("", texture), ("_cpu", texture_cpu)):
         for stage in stages:
