@@ -27,6 +27,7 @@ def test_an_empty_cache_misses_every_kernel_file_and_one_index_is_enough(tmp_pat
                 if text.startswith("def _mask_kernel")) - 1  # its decorator's line
     (folder / f"pair._mask_kernel-{line}.{tag}.nbi").write_bytes(b"")
     assert missing_kernels(DATASET_KERNELS) == ["synth/appearance/photometric.py",
+                                                "synth/appearance/_powf.py",
                                                 "matcher/_kernels/grey.py",
                                                 "matcher/_kernels/canny.py"]
 

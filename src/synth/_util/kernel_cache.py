@@ -32,8 +32,10 @@ MATCHER_KERNELS = ("matcher/_kernels/census.py", "matcher/_kernels/canny.py",
                    "matcher/_kernels/cthw.py", "matcher/_kernels/adaptive.py",
                    "matcher/_kernels/aggregate.py", "matcher/_kernels/select.py",
                    "matcher/_kernels/learned.py", "matcher/_kernels/grey.py")
-#: Source files of the kernels a dataset sample compiles (occlusion mask, noise, grey, Canny).
-DATASET_KERNELS = ("synth/pair.py", "synth/appearance/photometric.py", "matcher/_kernels/grey.py",
+#: Source files of the kernels a dataset sample compiles (occlusion mask, noise, the gamma's
+#: power, grey, Canny).
+DATASET_KERNELS = ("synth/pair.py", "synth/appearance/photometric.py",
+                   "synth/appearance/_powf.py", "matcher/_kernels/grey.py",
                    "matcher/_kernels/canny.py")
 
 

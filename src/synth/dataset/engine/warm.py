@@ -38,11 +38,14 @@ def _warm_ground_truth() -> None:
 
 
 def _warm_noise() -> None:
-    """The noise lookup and both fused noise passes (uint8 through a table, blurred float32)."""
+    """The noise lookup and every fused noise pass (uint8 through a table, blurred float32,
+    blurred through the gamma's table of 1/256 grey levels) with the gamma's power."""
     gaussian_noise((1,), 1.0, rng=0)
     img = np.zeros((1, 1, 3), np.uint8)
     for blur in (0.0, 0.5):
-        apply_photometric(img, img, PhotometricParams(noise_sigma=1.0, blur_sigma=blur), rng=0)
+        for gamma in (1.0, 1.1):
+            apply_photometric(img, img, PhotometricParams(noise_sigma=1.0, blur_sigma=blur,
+                                                          gamma=gamma), rng=0)
 
 
 _warm_ground_truth()
