@@ -93,9 +93,47 @@ def write_all_atomic(files: dict[Path, bytes], *, fsync: bool = True) -> list[Pa
     """Write several already-encoded files, each atomically, in the given order.
 
     Encoding everything before the first write means validation and encoding errors leave the
-    destination untouched.
+    destination untouched. A file whose content is the very ``bytes`` object of an earlier file
+    of the same directory (``is``, not ``==``: a writer's deliberate repeat, such as
+    Middlebury's ``im1E.png`` and ``im1L.png`` when they repeat ``im1.png``) becomes a hard link
+    to that file, made atomically too: the same bytes, stored once. Where the file system
+    refuses hard links it is written as the others are.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     data = b"pixels"
+    ...     a, b = write_all_atomic({pathlib.Path(d, "a"): data, pathlib.Path(d, "b"): data})
+    ...     b.read_bytes() == data, a.stat().st_ino == b.stat().st_ino
+    (True, True)
     """
-    return [atomic_write_bytes(p, data, fsync=fsync) for p, data in files.items()]
+    written: list[Path] = []
+    first: dict[int, Path] = {}  # id of a bytes object -> the first file written with it
+    for p, data in files.items():
+        path = Path(p)
+        source = first.get(id(data))
+        if source is None or source.parent != path.parent or not _link_atomic(source, path):
+            atomic_write_bytes(path, data, fsync=fsync)
+            first.setdefault(id(data), path)
+        written.append(path)
+    return written
+
+
+def _link_atomic(source: Path, path: Path) -> bool:
+    """Make ``path`` a hard link to ``source`` (same directory) through a temporary name and a
+    rename; ``False``, with nothing changed, where the file system refuses the link."""
+    tmp = path.parent / f".{path.name}.{os.urandom(6).hex()}.tmp"  # claim_output's pattern
+    try:
+        os.link(source, tmp)
+    except OSError:
+        return False
+    try:
+        os.replace(tmp, path)
+    finally:  # a rename between two links of one file does nothing and keeps both names
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+    return True
 
 
 @contextlib.contextmanager

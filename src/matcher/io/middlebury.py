@@ -7,8 +7,9 @@ Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``), ``layout=
 
     im0.png, im1.png     left and right images (8-bit, RGB or grey)
     im1E.png, im1L.png   the right image under other exposure / lighting in real Middlebury 2014
-                         scenes; written as given, else as byte copies of im1.png (RAFT-Stereo
-                         lists them)
+                         scenes; written as given, else as hard links to im1.png (its bytes
+                         stored once; copies where the file system has no hard links;
+                         RAFT-Stereo lists them)
     disp0GT.pfm          left ground-truth disparity, float32, inf = no ground truth (MiddEval3's
                          name, what the SDK's runeval and RAFT-Stereo's Middlebury loader read)
     disp1GT.pfm          right ground truth
@@ -253,7 +254,8 @@ def write_middlebury(
         ``fsync`` each file before renaming it into place.
     right_exposure, right_lighting : uint8 array like ``right``, optional
         ``im1E.png`` (the right view at another exposure) and ``im1L.png`` (under other
-        lighting); each absent one is written as a byte copy of ``im1.png``.
+        lighting); each absent one is a hard link to ``im1.png`` (the same bytes, stored once;
+        a copy where the file system has no hard links: :func:`write_all_atomic`).
     highlight_left, highlight_right : (H, W) uint8 array, optional
         Specular-highlight masks (255 highlight, 0 not), written as ``mask0spec.png`` and
         ``mask1spec.png`` (both or neither).
@@ -322,7 +324,7 @@ def write_middlebury(
     files: dict[Path, bytes] = {
         out / "im0.png": encode_png(left, deflate=image_deflate),
         out / "im1.png": im1,
-        # a variant not rendered: a documented copy of im1
+        # a variant not rendered: im1 itself (the very object: write_all_atomic links it)
         out / "im1E.png": im1 if right_exposure is None else encode_png(right_exposure,
                                                                         deflate=image_deflate),
         out / "im1L.png": im1 if right_lighting is None else encode_png(right_lighting,
