@@ -52,9 +52,21 @@ def _shard_problems(root: Path, shards: list[dict], checksums: bool) -> list[str
 
 
 def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
-    """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs."""
-    entries = {name: {"bytes": path.stat().st_size, "sha256": sha256(path)}
-               for name, path in sorted(files)}
+    """The bytes of a sample's record: ``files`` are (path in the dataset, file to read) pairs.
+
+    Names of one file (hard links: Middlebury's ``im1E.png`` and ``im1L.png`` repeating
+    ``im1.png``, :func:`matcher.io.write_all_atomic`) are read and hashed once.
+    """
+    entries = {}
+    digests: dict[tuple[int, int], str] = {}  # (device, inode) -> SHA-256
+    for name, path in sorted(files):
+        st = path.stat()
+        inode = (getattr(st, "st_dev", 0), getattr(st, "st_ino", 0))
+        if inode[1] and getattr(st, "st_nlink", 1) > 1:
+            digest = digests.get(inode) or digests.setdefault(inode, sha256(path))
+        else:
+            digest = sha256(path)
+        entries[name] = {"bytes": st.st_size, "sha256": digest}
     return json_bytes({"files": entries, "index": index})
 
 
