@@ -192,6 +192,49 @@ def reference_noise(shape: tuple[int, int], frequency: float, pixel_size: tuple[
     return noise * f32(1.0 / std) if std > 0 else noise  # 0: no frequency of the band fits
 
 
+def reference_annulus(h: int, w: int, frequency: float, du: float, dv: float
+                      ) -> tuple[np.ndarray, np.ndarray, int]:
+    """``_annulus`` as its docstring says: the band test on every cell of the rfft grid.
+
+    ``_annulus`` tests only a window of columns per row; its cells, their order and the
+    gains' bits must be these.
+    """
+    fu, fv = np.fft.rfftfreq(w, d=du), np.fft.fftfreq(h, d=dv)
+    sigma = frequency / 3.0
+    reach = (frequency + NOISE_BAND * sigma) * (1 + 1e-6)
+    used = int(np.count_nonzero(fu <= reach))
+    offset = np.hypot(fv[:, None], fu[None, :used]) - frequency
+    band = np.abs(offset) <= NOISE_BAND * sigma
+    band[0, 0] = False
+    gain = np.exp(-0.5 * (offset[band] / sigma) ** 2).astype(np.float32)
+    return np.flatnonzero(band), gain, used
+
+
+def assert_annulus_is_the_reference(h: int, w: int, frequency: float, du: float,
+                                    dv: float) -> None:
+    from scenes.textures import _annulus
+
+    index, gain, used = _annulus.__wrapped__(h, w, frequency, du, dv)
+    want_index, want_gain, want_used = reference_annulus(h, w, frequency, du, dv)
+    assert used == want_used
+    np.testing.assert_array_equal(index, want_index)
+    assert gain.dtype == np.float32 and gain.tobytes() == want_gain.tobytes()
+
+
+@pytest.mark.parametrize(("h", "w", "frequency", "du", "dv"), [
+    (576, 768, 7.5, 15.07 / 768, 11.2 / 576),  # the flying wall: 40,000 band cells
+    (160, 243, 100.5, 0.36 / 243, 0.23 / 160),
+    (45, 81, 6.0, 1 / 32, 1 / 40),  # odd sides
+    (90, 64, 6.0, 1 / 32, 1 / 40),  # even: the Nyquist row is in the band
+    (1, 5, 2.0, 0.1, 0.1),  # one row
+    (2, 2, 0.5, 0.9, 0.2),  # the band beyond Nyquist
+    (89, 8, 39.3, 0.065, 0.105),  # no band cell below Nyquist
+])
+def test_annulus_cells_and_gains_are_the_whole_grid_test(h: int, w: int, frequency: float,
+                                                          du: float, dv: float) -> None:
+    assert_annulus_is_the_reference(h, w, frequency, du, dv)
+
+
 @pytest.mark.parametrize(("shape", "frequency", "pixel_size"), [
     ((576, 768), 30.0, (1 / 200, 1 / 200)),  # a large flying texture: half the columns used
     ((45, 81), 6.0, (1 / 32, 1 / 40)),  # odd sides

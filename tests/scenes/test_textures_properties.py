@@ -104,6 +104,15 @@ def test_band_limited_noise_bits_equal_the_reference(h: int, w: int, frequency: 
     assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
 
 
+@given(st.integers(1, 700), st.integers(1, 700), st.floats(0.05, 300.0),
+       st.floats(1e-4, 0.5), st.floats(1e-4, 0.5))
+def test_annulus_equals_the_whole_grid_test(h: int, w: int, frequency: float, du: float,
+                                            dv: float) -> None:
+    """The per-row windows find every band cell, in order, with the same gains (hand-picked
+    examples: ``test_textures.py::test_annulus_cells_and_gains_are_the_whole_grid_test``)."""
+    _sibling("test_textures.py").assert_annulus_is_the_reference(h, w, frequency, du, dv)
+
+
 def _is_5_smooth(n: int) -> bool:
     for p in (2, 3, 5):
         while n % p == 0:
