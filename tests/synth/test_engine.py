@@ -24,13 +24,15 @@ class _Threads:
     width, height, backend = 16, 16, "auto"
 
     def __call__(self, index, renderer):
+        import gc
         import os
 
         import cv2
         import numba
 
         return {"square": index * index, "backend": renderer.backend, "pid": os.getpid(),
-                "numba": numba.get_num_threads(), "cv2": cv2.getNumThreads()}
+                "numba": numba.get_num_threads(), "cv2": cv2.getNumThreads(),
+                "frozen": gc.get_freeze_count()}
 
 
 class _Fails:
@@ -85,6 +87,12 @@ def test_two_workers_run_every_index_once_with_their_share_of_threads(renderer):
     share = max(1, (os.cpu_count() or 1) // 2)  # OpenCV and numba: cores // workers each
     assert {(r["numba"], r["cv2"]) for r in out.values()} == {(share, share)}
     assert len({r["pid"] for r in out.values()}) <= 2
+    # each worker freezes its heap after its first sample (freeze_heap): that one saw nothing
+    # frozen, every later one the objects alive then
+    for pid in {r["pid"] for r in out.values()}:
+        frozen = sorted(r["frozen"] for r in out.values() if r["pid"] == pid)
+        assert frozen[0] == 0 and all(n > 10_000 for n in frozen[1:])
+    assert any(r["frozen"] for r in out.values())  # 5 samples, 2 workers: one ran several
 
 
 @pytest.mark.gl

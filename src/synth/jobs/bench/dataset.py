@@ -234,7 +234,8 @@ def profile_dataset(config: str = "planes", *, count: int = 10, backend: str = "
 
     Measured in a fresh child process set up like one worker of a run that gives each worker
     one core (:func:`synth.dataset.engine.tasks.configure_worker`: one OpenCV and numba thread,
-    tuned malloc; llvmpipe rasterizing in the calling thread), so the CPU figures are those of
+    tuned malloc; llvmpipe rasterizing in the calling thread; the heap frozen after the warm-up
+    sample, :func:`~synth.dataset.engine.tasks.freeze_heap`), so the CPU figures are those of
     a 2-worker run on 2 cores.
 
     Stages: ``draw`` (parameters and scene), ``search`` (edge density loop), ``render``
@@ -281,7 +282,7 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
              image_deflate: str | None = None) -> dict:
     from scenes import build_meshes
     from synth.dataset.config.parse import load_config
-    from synth.dataset.engine.tasks import renderer_threads
+    from synth.dataset.engine.tasks import freeze_heap, renderer_threads
     from synth.dataset.run import commit_returned, produce_sample
     from synth.dataset.config.sampling import draw_sample
     from synth.render.renderer import Renderer
@@ -298,6 +299,7 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
                   threads=renderer_threads(1)) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
         produce_sample(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
+        freeze_heap()  # as a worker does after its first sample
         (Path(tmp) / "out").mkdir()
         for i in range(count):
             with renderer.pass_timings(passes):
