@@ -33,7 +33,8 @@ import numpy as np
 from scenes.assets import list_folder, load_photo
 from scenes.spec import TextureSpec
 
-__all__ = ["photo_frequency", "photo_source", "photo_pixels_per_metre", "photo_texture"]
+__all__ = ["photo_frequency", "photo_source", "photo_pixels_per_metre", "photo_texture",
+           "photo_planes"]
 
 _BT601 = np.array([0.299, 0.587, 0.114])
 _CLIP_SIGMAS = 2.5
@@ -89,51 +90,152 @@ def photo_pixels_per_metre(spec: TextureSpec) -> float:
     return spec.frequency / photo_frequency(photo_source(spec))
 
 
-def _mirror(index: np.ndarray, n: int) -> np.ndarray:
-    m = np.mod(index, 2 * n)
-    return np.where(m >= n, 2 * n - 1 - m, m)
+@functools.lru_cache(maxsize=64)
+def _grey_stats(source: str, key: tuple[int, ...]) -> tuple[float, float]:
+    """Mean and standard deviation of the photograph's BT.601 grey levels in [0, 1]."""
+    grey = load_photo(source).astype(np.float64) @ _BT601 / 255.0
+    return float(grey.mean()), float(grey.std())
+
+
+@functools.lru_cache(maxsize=8)
+def _float_planes(source: str, key: tuple[int, ...], size: tuple[int, int] | None
+                  ) -> tuple[np.ndarray, ...]:
+    """The photograph's red, green and blue planes as flat float32 arrays of ``value / 255``
+    (read-only), reduced to ``size`` (width, height) with Pillow's box filter first if given."""
+    photo = load_photo(source)
+    if size is not None:
+        from PIL import Image
+
+        photo = np.asarray(Image.fromarray(photo).resize(size, Image.Resampling.BOX))
+    planes = []
+    for c in range(3):
+        plane = photo[..., c].astype(np.float32).reshape(-1)
+        plane /= np.float32(255.0)
+        plane.setflags(write=False)
+        planes.append(plane)
+    return tuple(planes)
+
+
+#: Texels per block of rows in :func:`photo_planes`: its ~40 arrays of a block stay in cache.
+_BLOCK_TEXELS = 1 << 15
 
 
 def photo_texture(spec: TextureSpec, shape: tuple[int, int], extent: tuple[float, float]
                   ) -> np.ndarray:
     """The (H, W, 3) uint8 texture of an ``"image"`` spec covering ``extent`` metres."""
+    return np.dstack(photo_planes(spec, shape, extent))
+
+
+def photo_planes(spec: TextureSpec, shape: tuple[int, int], extent: tuple[float, float]
+                 ) -> list[np.ndarray]:
+    """:func:`photo_texture`'s red, green and blue (H, W) uint8 planes, C-contiguous.
+
+    Texels are computed a block of rows at a time, channel by channel, with the float32 and
+    float64 operations of the formula in the module docstring in the same order (the same
+    bits as evaluating it over whole (H, W, 3) arrays, ~5x faster: the blocks stay in cache).
+    The photograph's float planes, grey statistics and reduction are cached per photograph.
+    """
     h, w = shape
     width, height = extent
     source = photo_source(spec)
-    photo = load_photo(source)
-    ppm = spec.frequency / photo_frequency(source)  # photo pixels per metre
+    key = _grey_stats_key(source)
+    ppm = spec.frequency / _frequency(source, key)  # photo pixels per metre
     texel_ppm = min(w / width, h / height)
+    ph, pw = load_photo(source).shape[:2]
+    size = None
     if texel_ppm < ppm:  # fewer texels than photo pixels per metre: reduce first (box filter)
-        from PIL import Image
-
         factor = texel_ppm / ppm
-        ph, pw = photo.shape[:2]
         size = (max(2, round(pw * factor)), max(2, round(ph * factor)))
-        photo = np.asarray(Image.fromarray(photo).resize(size, Image.Resampling.BOX))
         ppm *= size[0] / pw
-    data = photo.astype(np.float32) / np.float32(255.0)
-    grey = load_photo(source).astype(np.float64) @ _BT601 / 255.0
-    mu, sigma = float(grey.mean()), float(grey.std())
+        pw, ph = size
+    data = _float_planes(source, key, size)
+    mu, sigma = _grey_stats(source, key)
     rng = np.random.default_rng(spec.seed)
-    ph, pw = data.shape[:2]
     off_x, off_y = rng.uniform(size=2) * (pw, ph)
     u = (np.arange(w) + 0.5) * (width / w)
     v = (np.arange(h) + 0.5) * (height / h)
     theta = math.radians(spec.angle)
     c, s = math.cos(theta), math.sin(theta)
-    x = (c * u[None, :] - s * v[:, None]) * ppm + off_x - 0.5
-    y = (s * u[None, :] + c * v[:, None]) * ppm + off_y - 0.5
-    x0, y0 = np.floor(x), np.floor(y)
-    tx, ty = (x - x0).astype(np.float32)[..., None], (y - y0).astype(np.float32)[..., None]
-    xa, xb = _mirror(x0.astype(np.int64), pw), _mirror(x0.astype(np.int64) + 1, pw)
-    ya, yb = _mirror(y0.astype(np.int64), ph), _mirror(y0.astype(np.int64) + 1, ph)
-    top = data[ya, xa] * (1 - tx) + data[ya, xb] * tx
-    bottom = data[yb, xa] * (1 - tx) + data[yb, xb] * tx
-    rgb = top * (1 - ty) + bottom * ty
-    if sigma > 0 and spec.contrast > 0:
-        pattern = np.clip((rgb - np.float32(mu)) / np.float32(_CLIP_SIGMAS * sigma), -1.0, 1.0)
-        rgb = np.float32(spec.mean) + np.float32(0.5 * spec.contrast) * pattern
-    else:
-        rgb = np.full_like(rgb, np.float32(spec.mean))
-    rgb = np.clip(rgb, 0.0, 1.0) * np.asarray(spec.color, dtype=np.float32) * np.float32(255.0)
-    return np.rint(rgb).astype(np.uint8)
+    # x = (c u - s v) ppm + off_x - 0.5 and y = (s u + c v) ppm + off_y - 0.5, per texel
+    cu, su, sv, cv = c * u, s * u, s * v, c * v
+    f32 = np.float32
+    contrasted = sigma > 0 and spec.contrast > 0
+    centre, spread = f32(mu), f32(_CLIP_SIGMAS * sigma)
+    level, gain = f32(spec.mean), f32(0.5 * spec.contrast)
+    tints = [f32(t) for t in spec.color]
+    if not contrasted:  # every texel: clip(mean, 0, 1) * color * 255, rounded
+        flat = [np.full((1,), level) for _ in range(3)]
+        for ch, a in enumerate(flat):
+            np.clip(a, 0.0, 1.0, out=a)
+            a *= tints[ch]
+            a *= f32(255.0)
+            np.rint(a, out=a)
+        return [np.full((h, w), a[0], np.uint8) for a in flat]
+    out = [np.empty((h, w), np.uint8) for _ in range(3)]
+    rows = max(1, _BLOCK_TEXELS // w)
+    for r0 in range(0, h, rows):
+        r1 = min(h, r0 + rows)
+        x = np.subtract(cu, sv[r0:r1, None])
+        x *= ppm
+        x += off_x
+        x -= 0.5
+        y = np.add(su, cv[r0:r1, None])
+        y *= ppm
+        y += off_y
+        y -= 0.5
+        x0, y0 = np.floor(x), np.floor(y)
+        tx, ty = (x - x0).astype(np.float32), (y - y0).astype(np.float32)
+        xa, xb = _mirror_pair(x0, pw)
+        ya, yb = _mirror_pair(y0, ph)
+        ya *= pw
+        yb *= pw
+        corners = [(row + col).astype(np.intp) for row, col in ((ya, xa), (ya, xb), (yb, xa),
+                                                                (yb, xb))]
+        ox, oy = 1 - tx, 1 - ty
+        for ch in range(3):
+            a, b, cc, d = (data[ch].take(i) for i in corners)
+            a *= ox  # top = a (1 - tx) + b tx, bottom = cc (1 - tx) + d tx
+            b *= tx
+            a += b
+            cc *= ox
+            d *= tx
+            cc += d
+            a *= oy  # value = top (1 - ty) + bottom ty
+            cc *= ty
+            a += cc
+            a -= centre  # mean + contrast / 2 * clip((value - mu) / (2.5 sigma), -1, 1)
+            a /= spread
+            np.clip(a, -1.0, 1.0, out=a)
+            a *= gain
+            a += level
+            np.clip(a, 0.0, 1.0, out=a)
+            a *= tints[ch]
+            a *= f32(255.0)
+            np.rint(a, out=a)
+            out[ch][r0:r1] = a
+    return out
+
+
+def _mirror_pair(start: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The indices ``k`` and ``k + 1`` of the integral float64 array ``start`` reflected into
+    ``[0, n)`` (the photograph repeated by mirror reflection), as float64, without a branch.
+
+    With ``m = k mod 2n`` the reflection is ``m`` if ``m < n`` else ``2n - 1 - m``, i.e.
+    ``c - |m - c|`` for ``c = n - 1/2``; that of ``k + 1`` is ``max(c - |m + 1 - c|, 0)`` (the
+    formula gives -1 at ``m = 2n - 1``, where ``k + 1`` wraps to 0). ``m`` is exact: the
+    quotient of two integers below 2**53 is correctly rounded, so its floor is. ~4x faster than
+    int64 ``np.mod`` and ``np.where``.
+    """
+    period = 2.0 * n
+    centre = n - 0.5
+    m = np.floor(start / period)
+    m *= period
+    np.subtract(start, m, out=m)
+    first = np.subtract(m, centre)
+    np.abs(first, out=first)
+    np.subtract(centre, first, out=first)
+    m -= centre - 1.0
+    np.abs(m, out=m)
+    np.subtract(centre, m, out=m)
+    np.maximum(m, 0.0, out=m)
+    return first, m

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from PIL import Image
 
-from scenes.photos import photo_pixels_per_metre, photo_texture
+from scenes.photos import photo_pixels_per_metre, photo_planes, photo_texture
 from scenes.spec import TextureSpec
 
 __all__ = ["make_texture", "texture_image", "texture_shape", "band_limited_noise",
@@ -333,9 +333,11 @@ def texture_image(spec: TextureSpec, *, extent: tuple[float, float],
     """
     h, w = _checked_shape(spec, extent, pixels_per_metre, max_side)
     if spec.kind == "image":
-        return Image.fromarray(photo_texture(spec, (h, w), _check_extent(extent)), mode="RGB")
+        planes = photo_planes(spec, (h, w), _check_extent(extent))
+    else:
+        planes = _planes(spec, (h, w), extent)
     return Image.merge("RGB", [Image.frombuffer("L", (w, h), plane, "raw", "L", 0, 1)
-                               for plane in _planes(spec, (h, w), extent)])
+                               for plane in planes])
 
 
 def _checked_shape(spec: TextureSpec, extent: tuple[float, float],

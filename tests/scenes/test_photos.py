@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from PIL import Image
 
 from scenes.assets import AssetError, load_mesh_file, load_photo
-from scenes.photos import photo_frequency, photo_source, photo_texture
+from scenes.photos import _mirror_pair, photo_frequency, photo_source, photo_texture
 from scenes.spec import SKIMAGE_PHOTOS, TextureSpec
 from scenes.textures import make_texture, texture_shape
 from stereoforge.errors import ParameterError, SceneError
@@ -145,3 +147,86 @@ def test_mesh_own_texture_is_used_only_when_asked(tmp_path) -> None:
     trimesh.Trimesh(quad.vertices, quad.faces, process=False).export(bare)
     fallback = build_mesh(ObjectSpec("mesh", pose, (1.0,), path=str(bare), own_texture=True))
     assert fallback.metadata["texture_source"] == "generated"  # no texture of its own
+
+
+# ---------------------------------------------------------------------------- reference formulas
+def _mirror(index: np.ndarray, n: int) -> np.ndarray:
+    m = np.mod(index, 2 * n)
+    return np.where(m >= n, 2 * n - 1 - m, m)
+
+
+def reference_photo_texture(spec: TextureSpec, shape: tuple[int, int],
+                            extent: tuple[float, float]) -> np.ndarray:
+    """``photo_texture`` as the module docstring says, over whole (H, W, 3) arrays.
+
+    ``photo_texture`` evaluates it a block of rows and a channel at a time, from cached float
+    planes and statistics; the bytes must be these.
+    """
+    from scenes.photos import _BT601, _CLIP_SIGMAS
+
+    h, w = shape
+    width, height = extent
+    source = photo_source(spec)
+    photo = load_photo(source)
+    ppm = spec.frequency / photo_frequency(source)
+    texel_ppm = min(w / width, h / height)
+    if texel_ppm < ppm:
+        factor = texel_ppm / ppm
+        ph, pw = photo.shape[:2]
+        size = (max(2, round(pw * factor)), max(2, round(ph * factor)))
+        photo = np.asarray(Image.fromarray(photo).resize(size, Image.Resampling.BOX))
+        ppm *= size[0] / pw
+    data = photo.astype(np.float32) / np.float32(255.0)
+    grey = load_photo(source).astype(np.float64) @ _BT601 / 255.0
+    mu, sigma = float(grey.mean()), float(grey.std())
+    rng = np.random.default_rng(spec.seed)
+    ph, pw = data.shape[:2]
+    off_x, off_y = rng.uniform(size=2) * (pw, ph)
+    u = (np.arange(w) + 0.5) * (width / w)
+    v = (np.arange(h) + 0.5) * (height / h)
+    c, s = math.cos(math.radians(spec.angle)), math.sin(math.radians(spec.angle))
+    x = (c * u[None, :] - s * v[:, None]) * ppm + off_x - 0.5
+    y = (s * u[None, :] + c * v[:, None]) * ppm + off_y - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    tx, ty = (x - x0).astype(np.float32)[..., None], (y - y0).astype(np.float32)[..., None]
+    xa, xb = _mirror(x0.astype(np.int64), pw), _mirror(x0.astype(np.int64) + 1, pw)
+    ya, yb = _mirror(y0.astype(np.int64), ph), _mirror(y0.astype(np.int64) + 1, ph)
+    top = data[ya, xa] * (1 - tx) + data[ya, xb] * tx
+    bottom = data[yb, xa] * (1 - tx) + data[yb, xb] * tx
+    rgb = top * (1 - ty) + bottom * ty
+    if sigma > 0 and spec.contrast > 0:
+        pattern = np.clip((rgb - np.float32(mu)) / np.float32(_CLIP_SIGMAS * sigma), -1.0, 1.0)
+        rgb = np.float32(spec.mean) + np.float32(0.5 * spec.contrast) * pattern
+    else:
+        rgb = np.full_like(rgb, np.float32(spec.mean))
+    rgb = np.clip(rgb, 0.0, 1.0) * np.asarray(spec.color, dtype=np.float32) * np.float32(255.0)
+    return np.rint(rgb).astype(np.uint8)
+
+
+@pytest.mark.parametrize(("spec", "extent"), [
+    # the flying wall of middlebury-like: 1522 x 2047 texels, the photograph reduced first
+    (TextureSpec(kind="image", image="skimage:camera", frequency=7.84, contrast=0.59,
+                 mean=0.61, seed=118298827591194411, angle=222.87), (15.07, 11.2)),
+    # more texels than photo pixels per metre (no reduction), tinted, rows of one block
+    (TextureSpec(kind="image", image="skimage:coffee", frequency=3.0, contrast=1.0, mean=0.5,
+                 color=(0.9, 0.5, 0.2), seed=3, angle=-30.0), (0.7, 0.4)),
+    (TextureSpec(kind="image", image="skimage:gravel", frequency=40.0, contrast=0.0, mean=0.3,
+                 seed=5), (0.5, 0.2)),  # no contrast: one level per channel
+    (TextureSpec(kind="image", image="skimage:brick", frequency=12.0, contrast=0.8, seed=9,
+                 angle=90.0), (0.05, 3.0)),  # a tall narrow strip: a few texels per row
+])
+def test_photo_texture_bytes_equal_the_reference_formula(spec: TextureSpec, extent) -> None:
+    shape = texture_shape(spec, extent=extent)
+    got = photo_texture(spec, shape, extent)
+    want = reference_photo_texture(spec, shape, extent)
+    assert got.shape == want.shape == (*shape, 3) and got.tobytes() == want.tobytes()
+
+
+def test_mirror_pair_reflects_both_indices() -> None:
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 3, 7, 512):
+        k = np.concatenate([np.arange(-6 * n - 2, 6 * n + 3),
+                            rng.integers(-10**9, 10**9, 5000)]).astype(np.float64)
+        first, second = _mirror_pair(k, n)
+        assert np.array_equal(first, _mirror(k.astype(np.int64), n))
+        assert np.array_equal(second, _mirror(k.astype(np.int64) + 1, n))

@@ -113,6 +113,25 @@ def test_annulus_equals_the_whole_grid_test(h: int, w: int, frequency: float, du
     _sibling("test_textures.py").assert_annulus_is_the_reference(h, w, frequency, du, dv)
 
 
+@given(st.sampled_from(("camera", "coffee", "gravel", "brick")), st.floats(1.0, 60.0),
+       st.floats(0.0, 1.0), st.floats(0.0, 1.0), st.floats(-360.0, 360.0),
+       st.integers(0, 2**63 - 1), _extent)
+def test_photo_texture_bytes_equal_the_reference(name: str, frequency: float, contrast: float,
+                                                 mean: float, angle: float, seed: int,
+                                                 extent) -> None:
+    """Blocks of rows and cached planes change no byte (hand-picked examples:
+    ``test_photos.py::test_photo_texture_bytes_equal_the_reference_formula``)."""
+    from scenes.photos import photo_texture
+    from scenes.textures import texture_shape
+
+    spec = TextureSpec(kind="image", image=f"skimage:{name}", frequency=frequency,
+                       contrast=contrast, mean=mean, color=(1.0, 0.7, 0.4), seed=seed,
+                       angle=angle)
+    shape = texture_shape(spec, extent=extent, max_side=96)  # reduced photographs too
+    want = _sibling("test_photos.py").reference_photo_texture(spec, shape, extent)
+    assert photo_texture(spec, shape, extent).tobytes() == want.tobytes()
+
+
 def _is_5_smooth(n: int) -> bool:
     for p in (2, 3, 5):
         while n % p == 0:
