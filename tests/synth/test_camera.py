@@ -32,6 +32,74 @@ def test_undistort_inverts_distort(x: float, y: float) -> None:
     assert abs(ux[0] - x) < 1e-12 and abs(uy[0] - y) < 1e-12
 
 
+def reference_undistort(xd, yd, coeffs, iters=60, tol=1e-13):
+    """``undistort``'s Newton iteration over whole arrays (it steps a block of points at a
+    time; the bits must be these)."""
+    xd, yd = np.asarray(xd, np.float64), np.asarray(yd, np.float64)
+    if not any(coeffs):
+        return xd.copy(), yd.copy()
+    k1, k2, p1, p2, k3 = coeffs
+    x, y = xd.copy(), yd.copy()
+    for _ in range(iters):
+        fx, fy = distort(x, y, coeffs)
+        ex, ey = fx - xd, fy - yd
+        if max(float(np.abs(ex).max(initial=0)), float(np.abs(ey).max(initial=0))) < tol:
+            return x, y
+        r2 = x * x + y * y
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+        a = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
+        b = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
+        d = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
+        det = a * d - b * b
+        x = x - (d * ex - b * ey) / det
+        y = y - (a * ey - b * ex) / det
+    raise AssertionError("no convergence")
+
+
+@pytest.mark.parametrize("coeffs", [MILD, (-0.3, 0.1, 0.002, 0.001, -0.01),
+                                    (0.1, -0.02, 0.0, 0.0, 0.01)])
+@pytest.mark.parametrize("shape", [(300, 257), (7,), (), (0, 4)])
+def test_undistort_in_blocks_is_the_whole_array_iteration(coeffs, shape) -> None:
+    """Blocks of points change no bit: the same steps (the error test is over every point)."""
+    rng = np.random.default_rng(len(shape))
+    xd, yd = rng.uniform(-0.7, 0.7, shape), rng.uniform(-0.5, 0.5, shape)
+    xd.flat[:1] = 0.69  # the slowest point decides how many steps every point takes
+    got, want = undistort(xd, yd, coeffs), reference_undistort(xd, yd, coeffs)
+    for g, w in zip(got, want):
+        assert g.shape == w.shape == np.shape(xd) and g.tobytes() == w.tobytes()
+
+
+def reference_bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``synth.camera.imperfect._bilinear`` over whole (..., c) arrays."""
+    h, w = image.shape[:2]
+    x, y = np.clip(x, 0.0, w - 1.0), np.clip(y, 0.0, h - 1.0)
+    x0 = np.minimum(np.floor(x).astype(np.intp), w - 2)
+    y0 = np.minimum(np.floor(y).astype(np.intp), h - 2)
+    tx, ty = (x - x0)[..., None], (y - y0)[..., None]
+    img = image.astype(np.float64)
+    top = img[y0, x0] * (1 - tx) + img[y0, x0 + 1] * tx
+    bottom = img[y0 + 1, x0] * (1 - tx) + img[y0 + 1, x0 + 1] * tx
+    return top * (1 - ty) + bottom * ty
+
+
+@pytest.mark.parametrize(("h", "w", "shape"), [(61, 97, (150, 230)), (2, 2, (9,)),
+                                               (40, 3, (5, 4))])
+def test_bilinear_in_blocks_is_the_whole_array_formula(h: int, w: int, shape) -> None:
+    from synth.camera.imperfect import _bilinear
+
+    rng = np.random.default_rng(h)
+    image = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+    # beyond the edges (clamped), on them, on integer and half pixels
+    x = rng.uniform(-3.0, w + 2.0, shape)
+    y = rng.uniform(-3.0, h + 2.0, shape)
+    x.flat[:4], y.flat[:4] = (0.0, w - 1.0, 2.0, w - 1.5), (h - 1.0, 0.0, 1.5, h - 1.0)
+    got, want = _bilinear(image, x, y), reference_bilinear(image, x, y)
+    assert got.shape == want.shape == (*shape, 3) and got.tobytes() == want.tobytes()
+    with pytest.raises(ValueError, match="at least 2 x 2"):
+        _bilinear(image[:1], x, y)
+
+
 def test_rotation_matrix_is_a_rotation_in_zyx_order() -> None:
     r = rotation_matrix((3.0, -2.0, 1.0))
     np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-15)

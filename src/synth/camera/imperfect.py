@@ -157,18 +157,48 @@ def camera_flow(scene: Any, rig: StereoRig, *, mesh: Any = None) -> _Flow:
 
 
 # ---------------------------------------------------------------------------- images
+#: Samples per block of :func:`_bilinear` (its arrays of a block stay in cache).
+_BLOCK = 1 << 14
+
+
 def _bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Bilinear samples (float64) of an (h, w, c) image at float pixel coordinates (edges clamped)."""
-    h, w = image.shape[:2]
-    x = np.clip(x, 0.0, w - 1.0)
-    y = np.clip(y, 0.0, h - 1.0)
-    x0 = np.minimum(np.floor(x).astype(np.intp), w - 2)
-    y0 = np.minimum(np.floor(y).astype(np.intp), h - 2)
-    tx, ty = (x - x0)[..., None], (y - y0)[..., None]
-    img = image.astype(np.float64)
-    top = img[y0, x0] * (1 - tx) + img[y0, x0 + 1] * tx
-    bottom = img[y0 + 1, x0] * (1 - tx) + img[y0 + 1, x0 + 1] * tx
-    return top * (1 - ty) + bottom * ty
+    """Bilinear samples (float64) of an (h, w, c) image at float pixel coordinates (edges
+    clamped), as ``top (1 - ty) + bottom ty`` with ``top = I[y0, x0] (1 - tx) + I[y0, x0 + 1]
+    tx`` and ``bottom`` the same on row ``y0 + 1``, ``x0 = min(floor(x), w - 2)``.
+
+    Computed a block of samples and a channel at a time from flat float64 planes (the same
+    float64 operations per sample as over whole (..., c) arrays, so the same bits, ~4x faster:
+    the blocks stay in cache). ``h`` and ``w`` must be at least 2.
+    """
+    h, w, channels = image.shape
+    if h < 2 or w < 2:
+        raise ValueError(f"_bilinear needs an image of at least 2 x 2 pixels, got {w} x {h}")
+    planes = [image[..., k].astype(np.float64).reshape(-1) for k in range(channels)]
+    xs, ys = np.asarray(x, np.float64).reshape(-1), np.asarray(y, np.float64).reshape(-1)
+    out = np.empty((xs.size, channels), np.float64)
+    for start in range(0, xs.size, _BLOCK):
+        stop = min(xs.size, start + _BLOCK)
+        bx = np.clip(xs[start:stop], 0.0, w - 1.0)
+        by = np.clip(ys[start:stop], 0.0, h - 1.0)
+        x0 = np.minimum(np.floor(bx).astype(np.intp), w - 2)
+        y0 = np.minimum(np.floor(by).astype(np.intp), h - 2)
+        tx, ty = bx - x0, by - y0
+        ox, oy = 1 - tx, 1 - ty
+        i00 = y0 * w + x0
+        corners = (i00, i00 + 1, i00 + w, i00 + (w + 1))
+        for k, plane in enumerate(planes):
+            a, b, c, d = (plane.take(i) for i in corners)
+            a *= ox
+            b *= tx
+            a += b  # top
+            c *= ox
+            d *= tx
+            c += d  # bottom
+            a *= oy
+            c *= ty
+            a += c
+            out[start:stop, k] = a
+    return out.reshape(*np.shape(x), channels)
 
 
 def _camera_image(scene: Any, rig: StereoRig, cam: _Camera, eye: str, renderer: Any) -> np.ndarray:
