@@ -100,6 +100,17 @@ def test_bilinear_in_blocks_is_the_whole_array_formula(h: int, w: int, shape) ->
         _bilinear(image[:1], x, y)
 
 
+@pytest.mark.parametrize("s", [1, 2, 3])
+def test_block_mean_is_numpys_mean(s: int) -> None:
+    from synth.camera.imperfect import _block_mean
+
+    rng = np.random.default_rng(s)
+    samples = rng.uniform(0.0, 255.0, (37, s, 53, s, 3)) * rng.uniform(0.5, 1.5, (37, s, 1, 1, 1))
+    want = samples.mean(axis=(1, 3))
+    got = _block_mean(samples)
+    assert got.shape == want.shape and got.tobytes() == want.tobytes()
+
+
 def test_rotation_matrix_is_a_rotation_in_zyx_order() -> None:
     r = rotation_matrix((3.0, -2.0, 1.0))
     np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-15)

@@ -217,8 +217,21 @@ def _camera_image(scene: Any, rig: StereoRig, cam: _Camera, eye: str, renderer: 
                      baseline=rig.baseline, near=rig.near, far=rig.far)
     color = renderer.render_view(scene, wide, eye=eye).color
     sub = _bilinear(color, fxw * xn + cxw, fyw * yn + cyw)
-    img = sub.reshape(rig.height, s, rig.width, s, 3).mean(axis=(1, 3))
+    img = _block_mean(sub.reshape(rig.height, s, rig.width, s, 3))
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+
+def _block_mean(samples: np.ndarray) -> np.ndarray:
+    """``samples.mean(axis=(1, 3))`` of an (h, s, w, s, c) array, summed as numpy sums it (the
+    s x s samples of a pixel added in row-major order, from the first) and divided by ``s * s``:
+    the same bits, ~4x faster than numpy's reduction over two strided axes."""
+    out = samples[:, 0, :, 0].copy()
+    for i in range(samples.shape[1]):
+        for j in range(samples.shape[3]):
+            if i or j:
+                out += samples[:, i, :, j]
+    out /= samples.shape[1] * samples.shape[3]
+    return out
 
 
 def _disc(diameter: float) -> np.ndarray:
