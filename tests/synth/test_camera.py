@@ -60,14 +60,24 @@ def reference_undistort(xd, yd, coeffs, iters=60, tol=1e-13):
 @pytest.mark.parametrize("coeffs", [MILD, (-0.3, 0.1, 0.002, 0.001, -0.01),
                                     (0.1, -0.02, 0.0, 0.0, 0.01)])
 @pytest.mark.parametrize("shape", [(300, 257), (7,), (), (0, 4)])
-def test_undistort_in_blocks_is_the_whole_array_iteration(coeffs, shape) -> None:
-    """Blocks of points change no bit: the same steps (the error test is over every point)."""
+def test_compiled_undistort_is_the_whole_array_iteration(coeffs, shape) -> None:
+    """The compiled steps change no bit: the same operations, the same number of steps (the
+    error test is over every point)."""
     rng = np.random.default_rng(len(shape))
     xd, yd = rng.uniform(-0.7, 0.7, shape), rng.uniform(-0.5, 0.5, shape)
     xd.flat[:1] = 0.69  # the slowest point decides how many steps every point takes
     got, want = undistort(xd, yd, coeffs), reference_undistort(xd, yd, coeffs)
     for g, w in zip(got, want):
         assert g.shape == w.shape == np.shape(xd) and g.tobytes() == w.tobytes()
+
+
+def test_undistort_of_a_nan_does_not_converge_as_numpy_would_not() -> None:
+    xd = np.array([0.1, np.nan, 0.2])
+    for undo in (undistort, reference_undistort):
+        with pytest.raises((ParameterError, AssertionError)):
+            undo(xd, np.zeros(3), MILD)
+    with pytest.raises(ParameterError, match="did not converge"):
+        undistort(xd, np.zeros(3), MILD)
 
 
 def reference_bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
