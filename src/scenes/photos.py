@@ -147,7 +147,6 @@ def photo_planes(spec: TextureSpec, shape: tuple[int, int], extent: tuple[float,
         size = (max(2, round(pw * factor)), max(2, round(ph * factor)))
         ppm *= size[0] / pw
         pw, ph = size
-    data = _float_planes(source, size)
     mu, sigma = _grey_stats(source, key)
     rng = np.random.default_rng(spec.seed)
     off_x, off_y = rng.uniform(size=2) * (pw, ph)
@@ -170,6 +169,7 @@ def photo_planes(spec: TextureSpec, shape: tuple[int, int], extent: tuple[float,
             a *= f32(255.0)
             np.rint(a, out=a)
         return [np.full((h, w), a[0], np.uint8) for a in flat]
+    data = _float_planes(source, size)
     out = [np.empty((h, w), np.uint8) for _ in range(3)]
     rows = max(1, _BLOCK_TEXELS // w)
     for r0 in range(0, h, rows):
