@@ -23,6 +23,13 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
+def _temporary_affixes(path: Path) -> tuple[str, str]:
+    """Prefix and suffix of the temporary names beside ``path`` (``.NAME.<token>.tmp``): those
+    :func:`atomic_write_bytes` and :func:`write_all_atomic` rename into place and
+    :func:`claim_output` sweeps."""
+    return f".{path.name}.", ".tmp"
+
+
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool = True) -> Path:
     """Write ``data`` to ``path`` atomically.
 
@@ -57,7 +64,8 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, *, fsync: bool
     """
     path = Path(path)
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        prefix, suffix = _temporary_affixes(path)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=prefix, suffix=suffix)
     except OSError as exc:  # name the destination, not the temporary name
         raise OSError(exc.errno, exc.strerror, str(path)) from exc
     try:
@@ -123,7 +131,8 @@ def write_all_atomic(files: dict[Path, bytes], *, fsync: bool = True) -> list[Pa
 def _link_atomic(source: Path, path: Path) -> bool:
     """Make ``path`` a hard link to ``source`` (same directory) through a temporary name and a
     rename; ``False``, with nothing changed, where the file system refuses the link."""
-    tmp = path.parent / f".{path.name}.{os.urandom(6).hex()}.tmp"  # claim_output's pattern
+    prefix, suffix = _temporary_affixes(path)
+    tmp = path.parent / f"{prefix}{os.urandom(6).hex()}{suffix}"
     try:
         os.link(source, tmp)
     except OSError:
@@ -173,7 +182,8 @@ def claim_output(path: str | os.PathLike[str], files: Sequence[str | os.PathLike
         except BlockingIOError:
             raise FileExistsError(f"{path}: another process is writing it (it holds {lock}); "
                                   "wait for it to end or choose another --out") from None
-        stale = [p for f in files for p in Path(f).parent.glob(f".{Path(f).name}.*.tmp")]
+        stale = [p for f in map(Path, files)
+                 for p in f.parent.glob("*".join(_temporary_affixes(f)))]
         for p in stale:
             p.unlink(missing_ok=True)
         if stale and say is not None:

@@ -270,7 +270,8 @@ def _ready() -> None:
 
 def freeze_heap() -> None:
     """Move every object alive now out of the cyclic garbage collector's sight
-    (``gc.freeze``), once a worker has run its first sample.
+    (``gc.freeze``), once per process: workers call it after each sample, and only the call
+    after their first sample freezes (later ones would freeze each sample's cycles too).
 
     What is alive then (the modules, numba's dispatchers, the renderer, the caches: ~190,000
     objects in a dataset worker) stays alive, yet each full collection walked all of it: 64-72
@@ -279,7 +280,9 @@ def freeze_heap() -> None:
     as before, and frozen objects are still freed by reference counting; only a reference
     cycle among them would stay (nearly all of them are in use until the worker ends).
     """
-    gc.freeze()
+    if not _WORKER.get("frozen"):
+        gc.freeze()
+        _WORKER["frozen"] = True
 
 
 def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
@@ -292,10 +295,9 @@ def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
         renderer = _WORKER["renderer"] = Renderer(
             task.width, task.height, backend=backend, probe=False,
             threads=renderer_threads(_WORKER["threads"]))
-        result = _WORKER["task"](index, renderer)
-        freeze_heap()
-        return index, result
-    return index, _WORKER["task"](index, renderer)
+    result = _WORKER["task"](index, renderer)
+    freeze_heap()
+    return index, result
 
 
 def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tuple[int, dict]]:
@@ -339,16 +341,13 @@ class _RayWorker:
         self.task = task
         self.renderer = Renderer(task.width, task.height, backend=task.backend,
                                  threads=renderer_threads(1))
-        self.frozen = False  # freeze_heap after the first sample
 
     def ready(self) -> None:
         """Returns once ``__init__`` ran (the renderer is open)."""
 
     def run(self, index: int) -> tuple[int, dict]:
         result = self.task(index, self.renderer)
-        if not self.frozen:
-            freeze_heap()
-            self.frozen = True
+        freeze_heap()
         return index, result
 
 

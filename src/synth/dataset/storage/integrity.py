@@ -58,12 +58,14 @@ def completion_record(index: int, files: Iterable[tuple[str, Path]]) -> bytes:
     ``im1.png``, :func:`matcher.io.write_all_atomic`) are read and hashed once.
     """
     entries = {}
-    digests: dict[tuple[int, int], str] = {}  # (device, inode) -> SHA-256
+    digests: dict[tuple[int, int], str] = {}  # (device, inode) of a linked file -> SHA-256
     for name, path in sorted(files):
         st = path.stat()
-        inode = (getattr(st, "st_dev", 0), getattr(st, "st_ino", 0))
-        if inode[1] and getattr(st, "st_nlink", 1) > 1:
-            digest = digests.get(inode) or digests.setdefault(inode, sha256(path))
+        if st.st_nlink > 1 and st.st_ino:  # st_ino is 0 where a file system has none
+            inode = (st.st_dev, st.st_ino)
+            if inode not in digests:
+                digests[inode] = sha256(path)
+            digest = digests[inode]
         else:
             digest = sha256(path)
         entries[name] = {"bytes": st.st_size, "sha256": digest}
