@@ -115,14 +115,21 @@ def _skimage_photo(name: str) -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def _file_photo(path: str, size: int, mtime_ns: int) -> np.ndarray:
+    import warnings
+
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as img:
-            img.load()
-            if img.mode not in ("L", "RGB", "RGBA"):
-                img = img.convert("RGB")
-            arr = np.asarray(img)
+        with warnings.catch_warnings():  # Pillow's warning of a huge image: refused, one line
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as img:
+                img.load()
+                if img.mode not in ("L", "RGB", "RGBA"):
+                    img = img.convert("RGB")
+                arr = np.asarray(img)
+    except (Image.DecompressionBombWarning, Image.DecompressionBombError) as exc:
+        raise AssetError(f"photograph {path!r} is too large to be a texture ({exc}); give an "
+                         f"image of at most {Image.MAX_IMAGE_PIXELS} pixels") from None
     except UnidentifiedImageError:
         raise AssetError(f"photograph {path!r} is not an image Pillow can read; give a PNG, "
                          "JPEG, TIFF, BMP or WebP file") from None

@@ -82,6 +82,12 @@ def test_folder_picks_a_file_by_seed(tmp_path) -> None:
     (lambda p: (p / "bad.png").write_text("no") and str(p / "bad.png"),
      r"'.*bad\.png' is not an image Pillow can read"),
     (lambda p: str(p), r"folder '.*' holds no image file"),
+    # a header claiming 100 M pixels (Pillow's bomb warning) or 400 M (its error): refused
+    # before any pixel is decoded
+    (lambda p: (p / "huge.ppm").write_bytes(b"P6\n9999 9999\n255\nab") and str(p / "huge.ppm"),
+     r"'.*huge\.ppm' is too large to be a texture .*; give an image of at most \d+ pixels"),
+    (lambda p: (p / "huger.ppm").write_bytes(b"P6\n20000 20000\n255\nab") and str(p / "huger.ppm"),
+     r"'.*huger\.ppm' is too large to be a texture"),
 ])
 def test_bad_photographs_raise_one_asset_error(tmp_path, make, pattern) -> None:
     spec = TextureSpec(kind="image", image=make(tmp_path))
