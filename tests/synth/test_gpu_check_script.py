@@ -32,7 +32,7 @@ def test_gpu_check_runs_every_step_on_this_machine(tmp_path, renderer):
     run = subprocess.run(["bash", str(ROOT / "tools" / "gpu_check.sh"), str(out), "1", "2"],
                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
-    steps = ["gl", "golden", "ground_truth", "bench"]
+    steps = ["gl", "golden", "ground_truth", "bench", "bench_yield"]
     assert run.stdout.splitlines() == [line for line in run.stdout.splitlines()
                                        if line.split(":")[0] in steps]
     for step in steps:
@@ -42,3 +42,8 @@ def test_gpu_check_runs_every_step_on_this_machine(tmp_path, renderer):
     stages = (out / "dataset-stages.md").read_text()
     assert "| flying | 960x540 | isal |" in stages and "| flying | 960x540 | stored |" in stages
     assert (out / "dataset.md").is_file()
+    # the last worker count, and half as many again (at least one more)
+    rows = [line.split(" | ")[5] for line in (out / "bench_yield.txt").read_text().splitlines()
+            if line.startswith("| flying | 960x540 | middlebury |")]
+    assert rows == ["1", "2"], rows
+    assert len(list(out.iterdir())) <= 8  # what a device run brings back
