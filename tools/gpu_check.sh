@@ -2,8 +2,9 @@
 # The GPU figures of docs/scale.md and docs/ground-truth.md in one call, each step under its own
 # time limit, each step's output in one file of OUT (GL strings, golden check, the ground truth's
 # closed-form tests, bench dataset's rates and stages, and the same rates with NVIDIA's driver
-# told to sleep rather than spin while it waits for the GPU). The limits add up to 585 s, under
-# the 600 s a device command may run; seven files, under the eight a run brings back.
+# told to sleep rather than spin while it waits for the GPU; what a GL call group costs the CPU,
+# tools/gl_overheads.py). The limits add up to 575 s, under the 600 s a device command may run;
+# six files, under the eight a run brings back.
 #
 #   bash tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]
 #   # defaults: WORKERS 4,16, COUNT 160, DEFLATES isal,stored (the images' PNG encodings)
@@ -45,9 +46,10 @@ except Exception as e:
   done
 }
 export -f gl_strings
-step gl 45 bash -c gl_strings
-step golden 150 stereoforge golden check --backend egl
-step ground_truth 90 python3 -m pytest -q -p no:cacheprovider tests/synth/test_ground_truth.py
+step gl 30 bash -c gl_strings
+step gl_overheads 30 python3 tools/gl_overheads.py --backend egl
+step golden 135 stereoforge golden check --backend egl
+step ground_truth 80 python3 -m pytest -q -p no:cacheprovider tests/synth/test_ground_truth.py
 step bench 180 stereoforge bench dataset --configs flying --size 960x540 --workers "$workers" \
   --count "$count" --image-deflate "$deflates" --backend egl --out "$work/bench"
 # NVIDIA's GL driver waits for the GPU by calling sched_yield in a loop (a busy core, counted as
@@ -58,4 +60,3 @@ most=${workers##*,}
 more=$(( most * 3 / 2 > most ? most * 3 / 2 : most + 1 ))
 step bench_yield 120 env __GL_YIELD=USLEEP stereoforge bench dataset --configs flying \
   --size 960x540 --workers "$most,$more" --count "$count" --backend egl --out "$work/bench_yield"
-cp "$work"/bench/dataset*.md "$out"/ 2>/dev/null || true

@@ -32,16 +32,19 @@ def test_gpu_check_runs_every_step_on_this_machine(tmp_path, renderer):
     run = subprocess.run(["bash", str(ROOT / "tools" / "gpu_check.sh"), str(out), "1", "2"],
                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
-    steps = ["gl", "golden", "ground_truth", "bench", "bench_yield"]
+    steps = ["gl", "gl_overheads", "golden", "ground_truth", "bench", "bench_yield"]
     assert run.stdout.splitlines() == [line for line in run.stdout.splitlines()
                                        if line.split(":")[0] in steps]
     for step in steps:
         text = (out / f"{step}.txt").read_text()
         assert text.splitlines()[-1].startswith("exit status 0 after"), (step, text[-2000:])
     assert "egl |" in (out / "gl.txt").read_text()
-    stages = (out / "dataset-stages.md").read_text()
-    assert "| flying | 960x540 | isal |" in stages and "| flying | 960x540 | stored |" in stages
-    assert (out / "dataset.md").is_file()
+    overheads = (out / "gl_overheads.txt").read_text()
+    for operation in ("finish", "dispatch", "dispatch+finish", "upload", "mipmap", "readback"):
+        assert f"| {operation} | " in overheads, overheads
+    bench = (out / "bench.txt").read_text()  # the rates' and the stages' tables
+    assert "| flying | 960x540 | isal |" in bench and "| flying | 960x540 | stored |" in bench
+    assert "| flying | 960x540 | middlebury | isal | local | 1 |" in bench
     # the last worker count, and half as many again (at least one more)
     rows = [line.split(" | ")[5] for line in (out / "bench_yield.txt").read_text().splitlines()
             if line.startswith("| flying | 960x540 | middlebury |")]
