@@ -11,6 +11,7 @@ import pytest
 from matcher.io import (
     encode_png,
     format_calib,
+    find_middlebury_2005_divisor,
     infer_middlebury_2005_divisor,
     load_kitti_2015,
     load_middlebury_2005,
@@ -21,6 +22,7 @@ from matcher.io import (
     read_image,
     write_pfm,
 )
+from matcher.io.middlebury import divisor_of_shape
 
 SCENES = ("Moebius", "Reindeer", "Flowerpots", "Cloth2", "Midd1", "Baby1")
 
@@ -193,9 +195,44 @@ def test_divisor_inference_from_folder_names(tmp_path):
     assert infer_middlebury_2005_divisor("x/ThirdSize/Baby1") == 3.0
     assert infer_middlebury_2005_divisor("FullSize/Baby1") == 1.0
     assert infer_middlebury_2005_divisor("half/third/Baby1") == 3.0  # nearest folder wins
+    assert infer_middlebury_2005_divisor("x/HALFSIZE/Baby1") == 2.0  # any case
+    assert infer_middlebury_2005_divisor("third/carefully/Baby1") == 3.0  # a word inside: none
     scene = _toy_2005(tmp_path, size="plain")
     with pytest.raises(ValueError, match="pass divisor=3"):
         load_middlebury_2005(scene)
+
+
+@pytest.mark.parametrize("folder", ["carefully", "fullsets", "halfmoon", "thirdparty",
+                                    "third_party", "Full-HD", "ThirdSizes"])
+def test_a_word_inside_a_folder_name_says_no_size(tmp_path, folder):
+    scene = _toy_2005(tmp_path / "real", size=folder)
+    with pytest.raises(ValueError, match="no folder named third, half or full"):
+        find_middlebury_2005_divisor(scene)
+    with pytest.raises(ValueError, match="pass divisor=3"):
+        load_middlebury_2005(scene)
+    assert load_middlebury_2005(scene, divisor=3).meta["divisor"] == 3.0
+
+
+def test_the_divisor_source_names_its_folder_and_how_far_up(tmp_path):
+    src = find_middlebury_2005_divisor(tmp_path / "ThirdSize" / "mine" / "sets" / "Baby1")
+    assert (src.divisor, src.folder.name, src.levels, src.far) == (3.0, "ThirdSize", 3, True)
+    src = find_middlebury_2005_divisor(tmp_path / "third" / "Baby1")
+    assert (src.folder, src.levels, src.far) == (tmp_path / "third", 1, False)
+
+
+def test_an_inferred_divisor_the_image_size_contradicts_is_refused(tmp_path):
+    scene = tmp_path / "full" / "Toy"
+    scene.mkdir(parents=True)
+    img = np.zeros((370, 463, 3), np.uint8)  # the third-size release's images
+    cv2.imwrite(str(scene / "view1.png"), img)
+    cv2.imwrite(str(scene / "view5.png"), img)
+    cv2.imwrite(str(scene / "disp1.png"), np.full((370, 463), 30, np.uint8))
+    with pytest.raises(ValueError, match=r"says full size \(divisor 1\).*463x370, the third size "
+                                         r".*pass divisor=3"):
+        load_middlebury_2005(scene)
+    assert load_middlebury_2005(scene, divisor=1).disp_left[0, 0] == 30.0  # given: trusted
+    assert divisor_of_shape((555, 620)) == 2.0 and divisor_of_shape((1110, 1390)) == 1.0
+    assert divisor_of_shape((370, 600)) is None and divisor_of_shape((100, 463)) is None
 
 
 def test_load_middlebury_2005_errors(tmp_path):

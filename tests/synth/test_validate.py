@@ -253,3 +253,35 @@ def test_cli_validate_end_to_end_battery_report_and_exit_status(tiny_suite, tmp_
     doc = json.loads((tmp_path / "bad" / "properties.json").read_text())
     failed = [p for p in doc["properties"] if p["required"] and not p["passed"]]
     assert failed and all("ZeroDivisionError" in p["explanation"] for p in failed)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("axis", ["noise", "blur", "jpeg_quality"])
+def test_region_masks_come_from_the_clean_render_at_every_level(tiny_suite, tmp_path, renderer,
+                                                                 axis):
+    """The regions of a pair are those of the noise-free render, so every level of a degradation
+    axis is scored on the same pixels (regions made from the degraded left view would shrink the
+    textureless region as noise rises)."""
+    from matcher.regions import region_masks
+    from synth.validate.pairs import PairSpec, render_pair_folder, render_sample
+
+    seed = 2  # its base scene has flat areas
+    specs = [PairSpec(axis, v, seed, axis_config("quick", AXES[axis], v, seed))
+             for v in AXES[axis].values("quick")]
+    assert len(specs) >= 3 and len({s.value for s in specs}) == len(specs)
+    masks = []
+    for spec in specs:
+        render_pair_folder(spec, tmp_path, renderer)
+        masks.append({n: read_image(tmp_path / spec.folder / f"mask_{n}.png") > 0
+                      for n in REGIONS})
+    # the degraded views differ between the levels, the masks do not
+    lefts = [read_image(tmp_path / s.folder / "im0.png") for s in specs]
+    assert any(not np.array_equal(lefts[0], other) for other in lefts[1:])
+    pair, images, _, _ = render_sample(specs[-1].config, specs[-1].seed, renderer)
+    clean = region_masks(pair.disp_left, pair.mask_left, pair.left)
+    assert clean["textureless"].sum() > 50  # the region the degradation would shrink
+    assert not np.array_equal(region_masks(pair.disp_left, pair.mask_left, images.left)
+                              ["textureless"], clean["textureless"])  # so the check can fail
+    for level in masks:
+        for name in REGIONS:
+            np.testing.assert_array_equal(level[name], clean[name], err_msg=name)

@@ -196,3 +196,46 @@ def test_each_part_of_a_real_spec_has_its_own_message(tmp_path):
     (m14 / "calib.txt").write_text(format_calib({"cam0": np.eye(3), "ndisp": 8}))
     (spec,) = resolve_real([f"middlebury:{m14}"])
     assert spec.kind == "middlebury2014" and spec.divisor is None
+
+
+def _third_size_scene(folder):
+    """A scene of the third-size release's image size (463 x 370), disparities 10 px."""
+    return _scene_2005(folder, np.full((370, 463), 30, np.uint8))
+
+
+@pytest.mark.parametrize("words", ["carefully", "fullsets", "halfmoon"])
+def test_a_word_inside_a_folder_name_gives_no_divisor_in_any_command(tmp_path, words):
+    scene = _scene_2005(tmp_path / "real" / words / "mb05", np.full((4, 6), 9, np.uint8))
+    want = (f"cannot tell the disparity divisor of {scene} (no folder named third, half or "
+            "full, or ThirdSize, HalfSize or FullSize); give it: middlebury:DIR:3")
+    for args in (["validate", "ct:3", "--axes", "noise", "--against", "", "--skip-battery",
+                  "--out", str(tmp_path / "v"), "--real", f"middlebury:{scene}"],
+                 ["train", f"middlebury:{scene}", "--out", str(tmp_path / "m.pt"),
+                  "--steps", "1"]):
+        result = CliRunner().invoke(main, args)
+        errors = [x for x in result.output.splitlines() if x.startswith("Error:")]
+        assert result.exit_code == 2 and len(errors) == 1 and want in errors[0], result.output
+        assert not (tmp_path / "v").exists() and not (tmp_path / "m.pt").exists()
+
+
+def test_a_divisor_that_the_image_size_contradicts_is_refused(tmp_path):
+    from synth.validate.real import resolve_real
+
+    scene = _third_size_scene(tmp_path / "FullSize" / "Toy")
+    with pytest.raises(ValueError, match=r"says full size \(divisor 1\) .* 463x370, the third size "
+                                         r".*give it: middlebury:DIR:3"):
+        resolve_real([f"middlebury:{scene}"])
+    (spec,) = resolve_real([f"middlebury:{scene}:3"])  # given: the user's word
+    assert spec.divisor == 3.0 and spec.note is None
+
+
+def test_a_divisor_from_a_folder_far_above_the_scene_is_said(tmp_path):
+    from synth.validate.real import resolve_real
+
+    scene = _third_size_scene(tmp_path / "third" / "my" / "own" / "Toy")
+    (spec,) = resolve_real([f"middlebury:{scene}"])
+    assert spec.divisor == 3.0
+    assert spec.note == (f"middlebury:own/Toy: divisor 3 from the folder {tmp_path / 'third'} "
+                         "(3 levels above the scene)")
+    (near,) = resolve_real([f"middlebury:{_third_size_scene(tmp_path / 'third' / 'Toy')}"])
+    assert near.divisor == 3.0 and near.note is None

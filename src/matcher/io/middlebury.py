@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +45,11 @@ __all__ = [
     "GT_FILES",
     "GT_NAMES",
     "REQUIRED_CALIB_KEYS",
+    "SIZE_FOLDERS",
+    "DivisorSource",
+    "check_middlebury_2005_divisor",
+    "divisor_of_shape",
+    "find_middlebury_2005_divisor",
     "infer_middlebury_2005_divisor",
     "load_middlebury_2005",
     "load_middlebury_2014",
@@ -63,14 +69,75 @@ GT_FILES: dict[str, tuple[str, str]] = {"middeval3": ("disp0GT.pfm", "disp1GT.pf
 GT_NAMES: dict[str, tuple[str, ...]] = {
     view: tuple(names[i] for names in GT_FILES.values()) for i, view in enumerate(("left", "right"))}
 
-_SIZE_DIVISORS = (("third", 3.0), ("half", 2.0), ("full", 1.0))
+#: Folder names (compared whole, in any case) that say a Middlebury 2005/2006 scene's size, as the
+#: archives and their mirrors name them, and the disparity divisor of that size.
+SIZE_FOLDERS: dict[str, float] = {"third": 3.0, "thirdsize": 3.0, "half": 2.0, "halfsize": 2.0,
+                                  "full": 1.0, "fullsize": 1.0}
+#: Image height (pixels) of every Middlebury 2005/2006 scene, and the range of their widths, at
+#: each size (divisor): 1110 and 1240-1396 at full size, a half and a third of those.
+SIZE_SHAPES: dict[float, tuple[int, tuple[int, int]]] = {
+    1.0: (1110, (1240, 1396)), 2.0: (555, (620, 698)), 3.0: (370, (413, 465))}
+#: Levels above a scene folder beyond which the folder a divisor came from is worth saying.
+NEAR_LEVELS = 2
+
+
+@dataclass(frozen=True)
+class DivisorSource:
+    """Where a Middlebury 2005/2006 scene's divisor came from (:func:`find_middlebury_2005_divisor`).
+
+    Attributes
+    ----------
+    divisor : float
+        3 (third size), 2 (half) or 1 (full).
+    folder : pathlib.Path
+        The folder whose name says the size.
+    levels : int
+        How far above the scene folder it is (0: the scene folder itself, 1: its parent).
+    """
+
+    divisor: float
+    folder: Path
+    levels: int
+
+    @property
+    def far(self) -> bool:
+        """More than :data:`NEAR_LEVELS` above the scene: a user's own folder, worth naming."""
+        return self.levels > NEAR_LEVELS
+
+
+def find_middlebury_2005_divisor(scene_dir: str | os.PathLike[str]) -> DivisorSource:
+    """The divisor of a Middlebury 2005/2006 scene from the nearest folder whose **whole** name
+    says its size (:data:`SIZE_FOLDERS`: ``third``, ``ThirdSize``, ``half``, ... in any case).
+
+    A name that only contains one of the words (``carefully``, ``fullsets``, ``halfmoon``) says
+    nothing.
+
+    Raises
+    ------
+    ValueError
+        If no folder name says; pass ``divisor`` explicitly then.
+
+    Examples
+    --------
+    >>> find_middlebury_2005_divisor("data/ThirdSize/Moebius").divisor
+    3.0
+    >>> find_middlebury_2005_divisor("data/half/my/own/Moebius").levels
+    3
+    """
+    path = Path(scene_dir)
+    parts = path.resolve().parts if path.exists() else path.parts
+    for levels, part in enumerate(reversed(parts)):
+        divisor = SIZE_FOLDERS.get(part.lower())
+        if divisor is not None:
+            return DivisorSource(divisor, Path(*parts[:len(parts) - levels]), levels)
+    raise ValueError(
+        f"divisor: cannot infer the size variant of {path} (no folder named third, half or full, "
+        "or ThirdSize, HalfSize or FullSize); pass divisor=3 (third size), 2 (half) or 1 (full)"
+    )
 
 
 def infer_middlebury_2005_divisor(scene_dir: str | os.PathLike[str]) -> float:
-    """Infer the disparity divisor of a Middlebury 2005/2006 scene from its folder names.
-
-    The nearest enclosing folder whose name contains ``third``, ``half`` or ``full``
-    (case-insensitive, e.g. ``third/``, ``ThirdSize/``, ``HalfSize/``) gives 3, 2 or 1.
+    """The divisor of :func:`find_middlebury_2005_divisor` (3, 2 or 1).
 
     Raises
     ------
@@ -82,16 +149,47 @@ def infer_middlebury_2005_divisor(scene_dir: str | os.PathLike[str]) -> float:
     >>> infer_middlebury_2005_divisor("data/middlebury/third/Moebius")
     3.0
     """
-    path = Path(scene_dir)
-    for part in reversed(path.resolve().parts if path.exists() else path.parts):
-        lower = part.lower()
-        for word, divisor in _SIZE_DIVISORS:
-            if word in lower:
-                return divisor
-    raise ValueError(
-        f"divisor: cannot infer the size variant of {path} (no folder named third/half/full); "
-        "pass divisor=3 (third size), 2 (half) or 1 (full)"
-    )
+    return find_middlebury_2005_divisor(scene_dir).divisor
+
+
+def check_middlebury_2005_divisor(source: DivisorSource, shape: tuple[int, ...], *,
+                                  scene_dir: str | os.PathLike[str], fix: str) -> None:
+    """Refuse a divisor inferred from a folder name that the scene's image size contradicts.
+
+    The images of every Middlebury 2005/2006 release have a known size (:data:`SIZE_SHAPES`):
+    a scene of third-size images under a ``full/`` folder is refused, with ``fix`` (formatted
+    with ``divisor``, the size's divisor) as the way out. An image of no release's size (a crop,
+    a resize) is not checked.
+
+    Raises
+    ------
+    ValueError
+        The folder's size and the image's disagree.
+    """
+    says = divisor_of_shape(shape)
+    if says is not None and says != source.divisor:
+        names = {3.0: "third", 2.0: "half", 1.0: "full"}
+        raise ValueError(
+            f"divisor: the folder {str(source.folder)!r} says {names[source.divisor]} size (divisor "
+            f"{source.divisor:g}) for the scene {str(scene_dir)!r}, but its images are "
+            f"{int(shape[1])}x{int(shape[0])}, the {names[says]} size of the Middlebury 2005/2006 "
+            f"releases (divisor {says:g}); {fix.format(divisor=says)}")
+
+
+def divisor_of_shape(shape: tuple[int, ...]) -> float | None:
+    """The divisor a Middlebury 2005/2006 image's size says (:data:`SIZE_SHAPES`), or None for
+    a size of no release (a crop, a resize).
+
+    Examples
+    --------
+    >>> divisor_of_shape((370, 463, 3)), divisor_of_shape((555, 695)), divisor_of_shape((48, 64))
+    (3.0, 2.0, None)
+    """
+    height, width = int(shape[0]), int(shape[1])
+    for divisor, (h, (lo, hi)) in SIZE_SHAPES.items():
+        if abs(height - h) <= 1 and lo - 2 <= width <= hi + 2:
+            return divisor
+    return None
 
 
 def load_middlebury_2005(scene_dir: str | os.PathLike[str], *, divisor: float | None = None) -> StereoSample:
@@ -103,7 +201,8 @@ def load_middlebury_2005(scene_dir: str | os.PathLike[str], *, divisor: float | 
         Folder of one scene, e.g. ``.../middlebury/third/Moebius``.
     divisor : float, optional
         PNG codes per pixel: 3 for the third size, 2 for half, 1 for full. When None it is
-        inferred from the folder names (:func:`infer_middlebury_2005_divisor`).
+        inferred from the folder names (:func:`find_middlebury_2005_divisor`) and checked
+        against the image size (:func:`check_middlebury_2005_divisor`).
 
     Returns
     -------
@@ -124,8 +223,12 @@ def load_middlebury_2005(scene_dir: str | os.PathLike[str], *, divisor: float | 
     """
     scene_dir = Path(scene_dir)
     require_dir(scene_dir, "scene_dir")
-    divisor = infer_middlebury_2005_divisor(scene_dir) if divisor is None else check_positive(divisor, "divisor")
+    source = find_middlebury_2005_divisor(scene_dir) if divisor is None else None
+    divisor = source.divisor if source is not None else check_positive(divisor, "divisor")
     left = read_image(scene_dir / "view1.png")
+    if source is not None:
+        check_middlebury_2005_divisor(source, left.shape, scene_dir=scene_dir,
+                                      fix="pass divisor={divisor:g}")
     right = read_image(scene_dir / "view5.png")
     disp_left = read_disparity(scene_dir / "disp1.png", divisor=divisor)
     disp5 = scene_dir / "disp5.png"

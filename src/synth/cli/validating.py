@@ -155,7 +155,8 @@ def validate(ctx, matcher, out, suite, against, workers, timeout, axes, real, ba
 
     res = run_validate(matcher, out=out, suite=suite, against=split_against(against),
                        workers=workers, timeout=timeout, backend=backend, progress=True,
-                       axes=chosen, battery=not skip_battery, real=real, baseline=baseline)
+                       axes=chosen, battery=not skip_battery, real=real, baseline=baseline,
+                       log=lambda line: click.echo(line, err=True))
     copied = f" ({res.pairs_copied} from the baseline)" if res.pairs_copied else ""
     click.echo(f"pairs: {res.pairs_rendered} rendered, {res.pairs_reused} reused{copied}; "
                f"estimates: {res.estimates_computed} computed, {res.estimates_reused} reused; "

@@ -82,6 +82,8 @@ class RealSpec:
         Middlebury 2005/2006 codes per pixel.
     key : str or None
         The sample in a layout's tree (:meth:`synth.formats.base.Layout.read_key`).
+    note : str or None
+        Worth telling the user (where an inferred divisor came from).
     fingerprint : str
         SHA-256 of the loaded images and ground truth (and of this layout's version).
     """
@@ -94,6 +96,7 @@ class RealSpec:
     divisor: float | None = None
     fingerprint: str = ""
     key: str | None = None
+    note: str | None = None
     axis = AXIS
     value = None
     seed = None
@@ -142,8 +145,6 @@ def _bad(spec: str, why: str) -> ParameterError:
 
 
 def _middlebury(spec: str, rest: str) -> list[RealSpec]:
-    from matcher.io import infer_middlebury_2005_divisor
-
     path, divisor = rest, None
     head, _, tail = rest.rpartition(":")
     if head and not Path(rest).is_dir():  # DIR:DIVISOR
@@ -183,15 +184,36 @@ def _middlebury(spec: str, rest: str) -> list[RealSpec]:
             raise _bad(spec, f"{folder} has no ground truth: no {' or '.join(names)}"
                              + (" (MiddEval3 or 2014 archive name)" if len(names) > 1 else "")
                              + "; add it or give another scene")
+        note = None
         if kind == "middlebury2005" and d is None:
-            try:
-                d = infer_middlebury_2005_divisor(folder)
-            except ValueError:
-                raise _bad(spec, f"cannot tell the disparity divisor of {folder} (no folder "
-                                 "named third/half/full); give it: middlebury:DIR:3") from None
+            d, note = _divisor(spec, folder)
         name = f"{folder.parent.name}/{folder.name}"
-        out.append(RealSpec(spec, f"middlebury:{name}", kind, str(folder), divisor=d))
+        out.append(RealSpec(spec, f"middlebury:{name}", kind, str(folder), divisor=d, note=note))
     return out
+
+
+def _divisor(spec: str, folder: Path) -> tuple[float, str | None]:
+    """The divisor of a Middlebury 2005/2006 scene from the nearest folder whose whole name
+    says its size, checked against its image size; and a note naming that folder when it is
+    more than a couple of levels above the scene."""
+    from matcher.io import check_middlebury_2005_divisor, find_middlebury_2005_divisor, read_image
+
+    try:
+        source = find_middlebury_2005_divisor(folder)
+    except ValueError:
+        raise _bad(spec, f"cannot tell the disparity divisor of {folder} (no folder named "
+                         "third, half or full, or ThirdSize, HalfSize or FullSize); give it: "
+                         "middlebury:DIR:3 (third size), :2 (half) or :1 (full)") from None
+    try:
+        check_middlebury_2005_divisor(source, read_image(folder / "view1.png").shape,
+                                      scene_dir=folder, fix="give it: middlebury:DIR:{divisor:g}")
+    except ValueError as exc:
+        raise _bad(spec, str(exc).removeprefix("divisor: ")) from None
+    note = None
+    if source.far:
+        note = (f"middlebury:{folder.parent.name}/{folder.name}: divisor {source.divisor:g} from "
+                f"the folder {source.folder} ({source.levels} levels above the scene)")
+    return source.divisor, note
 
 
 def _kitti(spec: str, rest: str) -> list[RealSpec]:
@@ -284,4 +306,6 @@ def write_real_folder(spec: RealSpec, out: Path) -> dict:
                               "max_disparity": max_disparity_for(gt, gt.shape[1])}
     if spec.divisor is not None:
         record["divisor"] = spec.divisor
+    if spec.note is not None:
+        record["note"] = spec.note
     return commit_pair_folder(out, spec.folder, write, masks, record)

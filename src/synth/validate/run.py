@@ -34,7 +34,7 @@ import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from matcher.io import atomic_write_bytes
 
@@ -264,7 +264,8 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
                  against: Sequence[str] = DEFAULT_AGAINST, workers: int = 1,
                  timeout: float = 60.0, backend: str = "auto", progress: bool = True,
                  axes: Sequence[str] | None = None, battery: bool = True,
-                 real: Sequence[str] = (), baseline: str | Path | None = None) -> ValidateResult:
+                 real: Sequence[str] = (), baseline: str | Path | None = None,
+                 log: Callable[[str], None] | None = None) -> ValidateResult:
     """Validate ``matcher`` (a MATCHER string) on every axis of ``suite`` against references.
 
     Parameters
@@ -290,6 +291,9 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     baseline : str or Path, optional
         A finished validate folder (:mod:`synth.validate.baseline`) whose matcher this one is
         compared with, on identical pairs; its pairs and its references' estimates are reused.
+    log : callable, optional
+        Told what the user should know before the work starts (where a real scene's divisor
+        came from, :attr:`synth.validate.real.RealSpec.note`).
 
     Returns
     -------
@@ -319,6 +323,9 @@ def run_validate(matcher: str, *, out: str | Path, suite: str = "quick",
     if base is not None and not real:  # the baseline's real scenes, as its pairs are taken
         real = base.real_specs
     reals = resolve_real(real)
+    for r in reals:
+        if r.note is not None and log is not None:
+            log(r.note)
     specs = [*plan(suite, axis_names), *reals]
     if base is not None:
         check_same_pairs(base, suite=suite, axes=axis_names, real=[r.scene for r in reals],

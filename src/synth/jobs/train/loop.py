@@ -398,6 +398,8 @@ def _train_claimed(cfg: TrainConfig, start_clock: float, say: Callable[[str], No
     one_pass = dev.type != "cpu" if one_pass is None else bool(one_pass)
     step_loss = _one_pass_loss if one_pass else _batch_loss
     sources = open_sources(cfg.sources, val_fraction=cfg.val_fraction)
+    for note in (n for s in sources for n in s.notes):
+        say(note)
     check_sizes(cfg, sources)
     blob = _load_checkpoint(ckpt_path, cfg, sources) if resume else None
     if blob is not None and blob.get("finished") and model_path.is_file():

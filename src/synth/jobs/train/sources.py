@@ -89,6 +89,8 @@ class TrainSource:
     _splits: dict = field(default_factory=dict, repr=False)
     #: The smallest image side, (height, width), over every pair (None: not known).
     smallest: tuple[int, int] | None = None
+    #: What the user should know of the source (where a real scene's divisor came from).
+    notes: tuple[str, ...] = ()
 
     def load(self, split: str, item: int) -> TrainPair:
         """Pair ``item`` (``0 .. n_train - 1`` or ``0 .. n_val - 1``) of ``split``.
@@ -163,7 +165,8 @@ def _real(spec: str) -> TrainSource:
         pairs.append(_pair(left, right, gt, mask))
     smallest = (min(p.left.shape[0] for p in pairs), min(p.left.shape[1] for p in pairs))
     return TrainSource(spec, spec, digest.hexdigest(), spec.partition(":")[0], len(pairs), 0,
-                       {"train": pairs, "val": []}, smallest)
+                       {"train": pairs, "val": []}, smallest,
+                       tuple(s.note for s in scenes if s.note is not None))
 
 
 _IMAGES_ONLY = ("im0.png", "view1.png", "image_2", "training/image_2")
