@@ -28,6 +28,7 @@ settings.register_profile(
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 _DEFAULT_MIDDLEBURY = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "middlebury"
+_DEFAULT_DEV = _DEFAULT_MIDDLEBURY.parent / "dev"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -53,4 +54,19 @@ def middlebury_dir(request: pytest.FixtureRequest, require_or_skip) -> Path:
             "pass --middlebury DIR or set STEREOFORGE_MIDDLEBURY"
         )
         require_or_skip(reason, env="STEREOFORGE_REQUIRE_REALDATA")
+    return path
+
+
+@pytest.fixture(scope="session")
+def dev_data_dir(require_or_skip) -> Path:
+    """The real scenes outside the lab (ETH3D, DrivingStereo, KITTI: evaluation only); skips
+    (with the reason) only where they are absent.
+
+    In CI ``STEREOFORGE_REQUIRE_DEVDATA=1`` turns the skip into a failure.
+    """
+    path = Path(os.environ.get("STEREOFORGE_DEV_DATA") or _DEFAULT_DEV)
+    if not (path / "eth3d").is_dir() or not (path / "drivingstereo").is_dir():
+        require_or_skip(f"development scenes not found at {path} (expected {path}/eth3d/ and "
+                        f"{path}/drivingstereo/); set STEREOFORGE_DEV_DATA",
+                        env="STEREOFORGE_REQUIRE_DEVDATA")
     return path

@@ -152,3 +152,47 @@ def test_init_has_all_and_no_star_imports(init):
     ), f"{init} lacks __all__"
     stars = [n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and any(a.name == "*" for a in n.names)]
     assert stars == []
+
+
+def _format_names() -> set[str]:
+    from synth.formats import layouts
+
+    return {n for layout in layouts() for n in (layout.name, layout.kind)}
+
+
+def format_name_comparisons(source: str, names: set[str]) -> list[int]:
+    """Lines of ``source`` that compare a value with a format's name (``== "kitti"``, ``in
+    ("sceneflow", ...)``): the branches on a format that belong in its layout."""
+    def named(node: ast.AST) -> bool:
+        if isinstance(node, ast.Constant):
+            return node.value in names
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+            return any(named(e) for e in node.elts)
+        return False
+
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Compare) and any(
+                isinstance(op, (ast.Eq, ast.NotEq, ast.In, ast.NotIn)) for op in node.ops):
+            if any(named(side) for side in (node.left, *node.comparators)):
+                lines.append(node.lineno)
+    return lines
+
+
+def test_no_code_outside_the_formats_compares_a_format_name():
+    names = _format_names()
+    assert {"middlebury", "kitti", "kitti2015", "eth3d", "skimage"} <= names
+    found = []
+    for path in sorted(SRC.rglob("*.py")):
+        if (SRC / "synth" / "formats") in path.parents:
+            continue
+        found += [f"{path.relative_to(SRC)}:{n}"
+                  for n in format_name_comparisons(path.read_text(), names)]
+    assert found == []
+
+
+def test_the_format_name_check_finds_a_planted_branch():
+    names = {"kitti", "sceneflow"}
+    planted = ("if fmt == 'kitti':\n    pass\nx = kind in ('sceneflow', 'a')\n"
+               "y = 'kitti' != fmt\nz = fmt == 'other'\nw = {'kitti': 1}\n")
+    assert format_name_comparisons(planted, names) == [1, 3, 4]

@@ -296,7 +296,9 @@ def test_load_middlebury_2014(tmp_path):
 
 def test_load_middlebury_2014_missing_files(tmp_path):
     _toy_2014(tmp_path / "Toy", with_optional=False)
-    (tmp_path / "Toy" / "calib.txt").unlink()
+    (tmp_path / "Toy" / "calib.txt").unlink()  # optional: a validate pair of a real scene
+    assert load_middlebury_2014(tmp_path / "Toy").meta["calib"] is None
+    (tmp_path / "Toy" / "im1.png").unlink()
     with pytest.raises(FileNotFoundError):
         load_middlebury_2014(tmp_path / "Toy")
 

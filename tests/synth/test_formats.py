@@ -20,7 +20,7 @@ from click.testing import CliRunner
 from stereoforge.errors import ParameterError
 from synth.dataset.config.parse import loads_config
 from synth.dataset.run import run_dataset
-from synth.formats import DATASET_FORMATS, FORMATS, get_layout, layouts
+from synth.formats import DATASET_FORMATS, FORMATS, READ_ONLY, get_layout, layouts
 
 CONFIG = """\
 name = "formats"
@@ -76,9 +76,12 @@ def test_every_format_is_one_registered_layout():
     # the registry's static list (read by the CLI without the layouts) is what they say
     assert list(FORMATS) == [n for n in DATASET_FORMATS if get_layout(n).capacity.sample_folders]
     for layout in layouts():
-        assert get_layout(layout.name) is layout
-        assert layout.tools_root and layout.sample_parent and layout.title
-        assert layout.writes_as in FORMATS
+        assert get_layout(layout.name) is layout and layout.title
+        assert layout.writable == (layout.name in DATASET_FORMATS)
+        if layout.writable:
+            assert layout.tools_root and layout.sample_parent
+            assert layout.writes_as in FORMATS
+    assert set(READ_ONLY) == {"middlebury2005", "eth3d", "drivingstereo", "skimage"}
     with pytest.raises(ValueError, match="unknown format 'pfm'; valid formats: middlebury"):
         get_layout("pfm")
 

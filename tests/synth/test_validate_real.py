@@ -122,11 +122,13 @@ def test_kitti_and_middeval3_layouts_use_their_own_masks(tiny_suite, middlebury_
 def test_bad_real_specs_are_one_error_line(tmp_path):
     for spec, message in (
             ("flickr:cats", "expected middlebury:DIR[:DIVISOR], kitti:DIR[:FIRST-LAST], "
-                            "skimage:motorcycle, sceneflow:DIR, crestereo:DIR or fsd:DIR"),
+                            "sceneflow:DIR, crestereo:DIR, fsd:DIR, eth3d:DIR, "
+                            "drivingstereo:DIR or skimage:motorcycle"),
             (f"middlebury:{tmp_path / 'absent'}", "is not a folder"),
             (f"middlebury:{tmp_path}", "no Middlebury scene in"),
             (f"kitti:{tmp_path}", "is not a KITTI 2015 training folder (no image_2/)"),
-            ("skimage:astronaut", "expected middlebury:DIR")):
+            ("skimage:astronaut", "scikit-image ships one stereo pair with ground truth: "
+                                  "skimage:motorcycle")):
         result = CliRunner().invoke(main, ["validate", "ct:9", "--out", str(tmp_path / "v"),
                                            "--real", spec, "--skip-battery"])
         assert result.exit_code == 2, result.output

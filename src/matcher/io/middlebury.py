@@ -242,15 +242,15 @@ def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
     """Load a Middlebury 2014 scene (either layout :func:`write_middlebury` writes).
 
     Reads ``im0.png``, ``im1.png``, ``disp0GT.pfm`` (MiddEval3) or ``disp0.pfm`` (the 2014 scene
-    archives), ``calib.txt`` and, when present, ``disp1GT.pfm`` (``disp1.pfm``) and
+    archives), and, when present, ``calib.txt``, ``disp1GT.pfm`` (``disp1.pfm``) and
     ``mask0nocc.png`` (which the 2014 archives do not have).
 
     Returns
     -------
     StereoSample
         Disparities as stored (``inf`` where there is no ground truth); ``meta["calib"]`` is the
-        parsed ``calib.txt`` (:func:`matcher.io.read_calib`); ``mask_left`` the occlusion mask
-        or None.
+        parsed ``calib.txt`` (:func:`matcher.io.read_calib`; None without one); ``mask_left``
+        the occlusion mask or None.
 
     Examples
     --------
@@ -276,7 +276,8 @@ def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
     if mask is not None and mask.ndim != 2:
         raise ValueError(f"{mask_path}: expected a grey mask, got shape {mask.shape}")
     check_sample_shapes(scene_dir, left, right, disp_left, disp_right, mask)
-    calib = read_calib(scene_dir / "calib.txt")
+    calib_path = scene_dir / "calib.txt"
+    calib = read_calib(calib_path) if calib_path.is_file() else None
     meta = {"dataset": "middlebury2014", "calib": calib, "scene_dir": str(scene_dir)}
     return StereoSample(left, right, disp_left, disp_right, scene_dir.name, meta, mask)
 

@@ -35,6 +35,11 @@ class StereoSample:
     flow_left : (H, W, 2) float32 array or None
         The exact 2-D flow of the left view to the right one (a rig with camera errors), NaN
         where unknown, when the dataset holds it.
+    regions : dict of str to (H, W) bool array, or None
+        Named pixel regions of the left view (validate's ``mask_<region>.png``), when stored.
+    extras : dict of str to array
+        Further ground truth stored beside the sample (depth, normals, ...: the reading
+        layout's), by kind.
     """
 
     left: np.ndarray
@@ -46,6 +51,8 @@ class StereoSample:
     mask_left: np.ndarray | None = None
     calib: dict | None = None
     flow_left: np.ndarray | None = None
+    regions: dict | None = None
+    extras: dict = field(default_factory=dict)
 
 
 def require_dir(path: Path, what: str) -> None:

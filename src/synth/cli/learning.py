@@ -44,8 +44,8 @@ def train_cmd(datasets, out, minutes, steps, seed, device, resume, overwrite, wo
     """Train the reference learned matcher (MC-CNN-fast style) on DATASET(s).
 
     DATASET: a stereoforge dataset folder, or real scenes with ground truth:
-    middlebury:DIR[:DIVISOR], kitti:DIR, skimage:motorcycle (a plain Middlebury or KITTI folder
-    is recognised too). Use the model anywhere a MATCHER is taken: learned:MODEL.pt
+    middlebury:DIR[:DIVISOR], kitti:DIR, eth3d:DIR, drivingstereo:DIR, skimage:motorcycle,
+    sceneflow:DIR, crestereo:DIR, fsd:DIR (a plain folder of one of those is recognised too). Use the model anywhere a MATCHER is taken: learned:MODEL.pt
     (learned:MODEL.pt?device=cpu|cuda|cuda:N|auto names where it runs).
     """
     from synth.jobs.train import TrainConfig, TrainInterrupted, default_crops, train

@@ -102,7 +102,8 @@ def _compare(ctx, compare, out, fail_on) -> None:
               help="Only these axes, comma-separated (default: every axis; see docs/validate.md).")
 @click.option("--real", "real", multiple=True, metavar="SPEC",
               help="Real scenes scored beside the axes (repeatable): middlebury:DIR[:DIVISOR], "
-                   "kitti:DIR[:FIRST-LAST] or skimage:motorcycle.")
+                   "kitti:DIR[:FIRST-LAST], eth3d:DIR, drivingstereo:DIR, skimage:motorcycle, "
+                   "or a tree of sceneflow:DIR, crestereo:DIR, fsd:DIR.")
 @click.option("--baseline", default=None, type=click.Path(file_okay=False, path_type=Path),
               help="A finished validate folder (an earlier version, another matcher): compare "
                    "with its matcher on the same pairs, reusing its pairs and references.")

@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from matcher.io import StereoSample, read_pfm
+from matcher.io import StereoSample
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_choice, check_real
 from synth._util.json_records import read_json_object
-from synth.dataset.storage.layout import check_layout, sample_dir
+from synth.dataset.storage.layout import check_layout
 from synth.dataset.storage.manifest import MODIFIED_FIX, read_manifest
 from synth.formats import DATASET_FORMATS, FORMATS, get_layout
 
@@ -47,31 +47,6 @@ def is_validation(seed: int, val_fraction: float) -> bool:
 
 def _records(root: Path) -> list[dict]:
     return read_manifest(root)  # the complete samples' sample.json (not a possibly stale manifest)
-
-
-def _png(path: Path) -> np.ndarray:
-    import cv2
-
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if image is None or image.ndim != 2:
-        raise DatasetError(f"{path}: not a grey PNG; the dataset directory was modified")
-    return image
-
-
-def _optional_ground_truth(folder: Path) -> dict[str, np.ndarray]:
-    """The optional ground truth of a sample folder (``synth.write.ground_truth``), when written."""
-    out: dict[str, np.ndarray] = {}
-    if (folder / "depth0.pfm").is_file():
-        out["depth"] = read_pfm(folder / "depth0.pfm").astype(np.float32, copy=False)
-    if (folder / "normals0.pfm").is_file():
-        out["normals"] = read_pfm(folder / "normals0.pfm").astype(np.float32, copy=False)
-    if (folder / "instance0.png").is_file():
-        out["instance"] = _png(folder / "instance0.png").astype(np.uint16, copy=False)
-    if (folder / "semantic0.png").is_file():
-        out["semantic"] = _png(folder / "semantic0.png").astype(np.uint8, copy=False)
-    if (folder / "mask1nocc.png").is_file():
-        out["occlusion_right"] = _png(folder / "mask1nocc.png") == 128
-    return out
 
 
 class StereoDataset:
@@ -172,22 +147,25 @@ class StereoDataset:
         return (f"StereoDataset({str(self.root)!r}, split={self.split!r}, "
                 f"val_fraction={self.val_fraction}) with {len(self)} samples ({self.format})")
 
-    def sample(self, item: int) -> StereoSample:
+    def sample(self, item: int, *, extras: bool = False) -> StereoSample:
         """Item ``item`` as the layout reads it back (:meth:`synth.formats.base.Layout.read`):
-        images, left and right ground truth, the occlusion mask (255/128/0), calibration."""
+        images, left and right ground truth, the occlusion mask (255/128/0), calibration and,
+        with ``extras``, the optional ground truth."""
         if isinstance(item, (bool, np.bool_)) or not isinstance(item, (int, np.integer)):
             raise TypeError(f"index: expected an int, got {type(item).__name__}")
         if not -len(self) <= item < len(self):
             raise IndexError(f"index {item} out of range for {len(self)} samples")
-        return self.layout.read(self.root, self.indices[int(item)])
+        return self.layout.read(self.root, self.indices[int(item)], extras=extras)
 
     def __getitem__(self, item: int) -> dict[str, Any]:
-        s = self.sample(item)
+        s = self.sample(item, extras=True)
         index = self.indices[int(item)]
         extra: dict[str, Any] = {}
         if s.disp_right is not None:
             extra["disp_right"] = s.disp_right.astype(np.float32, copy=False)
-        extra.update(_optional_ground_truth(sample_dir(self.root, self.format, index)))
+        extra.update(s.extras)
+        if "occlusion_right" in extra:  # the right view's mask: its occluded pixels
+            extra["occlusion_right"] = extra["occlusion_right"] == 128
         disp = s.disp_left.astype(np.float32, copy=False)
         return {
             "left": s.left, "right": s.right, "disp": disp, "valid": np.isfinite(disp),

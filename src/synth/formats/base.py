@@ -1,7 +1,7 @@
 """The interface every output layout implements: :class:`Layout` and what it can hold
 (:class:`Capacity`).
 
-A layout answers four questions, and nothing outside :mod:`synth.formats` asks a format's name:
+A layout answers five questions, and nothing outside :mod:`synth.formats` asks a format's name:
 
 - **where** a sample's files go: its folder of stereoforge's own files (``scene.json``,
   ``sample.json``: :meth:`Layout.sample_dir`), the folder the tools read (:attr:`Layout.tools_root`),
@@ -11,7 +11,14 @@ A layout answers four questions, and nothing outside :mod:`synth.formats` asks a
 - **reading** a sample back as one :class:`matcher.io.StereoSample` (:meth:`Layout.read`; a tree
   of the layout made elsewhere: :meth:`Layout.discover`, :meth:`Layout.read_key`);
 - **what it can hold** (:attr:`Layout.capacity`), checked before anything is rendered
-  (:meth:`Layout.check_rig`, :meth:`Layout.check_config`).
+  (:meth:`Layout.check_rig`, :meth:`Layout.check_config`);
+- **which trees are its own** (:meth:`Layout.recognises`; :meth:`Layout.detect` asks every
+  layout, the one place that guesses a folder's format) and which samples a SPEC such as
+  ``eth3d:DIR`` names (:meth:`Layout.open_spec`: :class:`SceneRef` each, read by
+  :meth:`SceneRef.read`).
+
+Read-only layouts (:attr:`Layout.writable` false: Middlebury 2005/2006, scikit-image's
+*Motorcycle*, ETH3D, DrivingStereo) answer the reading questions only.
 
 The folder a pair is written into (``dest``) stands for the sample folder: a file at
 ``dest/<name>`` ends in the sample folder, a file at ``dest/<p>/...`` with ``p`` in
@@ -24,15 +31,16 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
 from matcher.io import StereoSample, write_all_atomic
 from stereoforge.errors import DatasetError, ParameterError
 
-__all__ = ["JPEG_QUALITY", "Capacity", "Layout", "calib_from_rig", "fill_occlusion", "ndisp_for",
-           "swap_folder", "write_tree"]
+__all__ = ["JPEG_QUALITY", "Capacity", "Layout", "SceneRef", "calib_from_middlebury",
+           "calib_from_rig", "fill_occlusion",
+           "ndisp_for", "spec_error", "swap_folder", "write_tree"]
 
 #: Quality of the JPEG images of the layouts that store JPEG (no chroma subsampling).
 JPEG_QUALITY = 95
@@ -49,7 +57,7 @@ class Capacity:
     flow : bool
         The exact 2-D flow of a rig with camera errors (``flow0.flo``) is written.
     extra_ground_truth : bool
-        The optional ground truth of :mod:`synth.write.ground_truth` (depth, normals, ...) has a
+        The optional ground truth of :mod:`synth.formats.extras` (depth, normals, ...) has a
         place beside the files.
     disp_quantum : float or None
         Step of the stored disparity in pixels (KITTI 1/256, CREStereo 1/32, FSD 1/1000);
@@ -71,9 +79,65 @@ class Capacity:
     sample_folders: bool = True
 
 
+@dataclass(frozen=True)
+class SceneRef:
+    """One sample of a tree named by a SPEC (``eth3d:DIR``, ``middlebury:DIR:3``, ...): what
+    ``validate --real``, ``train`` and the benchmarks read, through its layout.
+
+    Attributes
+    ----------
+    layout : str
+        The name of the layout reading it (:func:`synth.formats.get_layout`).
+    root : str
+        The folder ``key`` is relative to.
+    key : str
+        The sample in the tree (one of :meth:`Layout.discover`; ``"."``: ``root`` itself).
+    scene : str
+        Its name in results: ``middlebury:third/Moebius``, ``eth3d:delivery_area_1s``.
+    name : str
+        Its short name: ``Moebius``, ``delivery_area_1s``, ``000007``.
+    kind : str
+        What kind of scene it is, as results and records name it (:attr:`Layout.kind`).
+    divisor : float or None
+        Middlebury 2005/2006 codes per pixel.
+    note : str or None
+        Worth telling the user (where an inferred divisor came from).
+    """
+
+    layout: str
+    root: str
+    key: str
+    scene: str
+    name: str
+    kind: str
+    divisor: float | None = None
+    note: str | None = None
+
+    def read(self) -> StereoSample:
+        """The sample, as its layout reads it (:meth:`Layout.read_ref`)."""
+        from synth.formats import get_layout
+
+        return get_layout(self.layout).read_ref(self)
+
+
+def spec_error(spec: str, why: str) -> ParameterError:
+    """The error of a SPEC that names no sample: ``'SPEC': why``."""
+    return ParameterError(f"{spec!r}: {why}")
+
+
 def calib_from_rig(rig: dict[str, Any]) -> dict[str, float]:
     """``fx, fy, cx, cy`` (pixels) and ``baseline`` (metres) of a ``scene.json`` rig record."""
     return {k: float(rig[k]) for k in ("fx", "fy", "cx", "cy", "baseline")}
+
+
+def calib_from_middlebury(calib: dict | None) -> dict[str, float] | None:
+    """``fx, fy, cx, cy`` (pixels) and ``baseline`` (metres) of a parsed Middlebury
+    ``calib.txt`` (:func:`matcher.io.read_calib`: ``cam0``, ``baseline`` in mm), or None."""
+    if not calib or "cam0" not in calib or "baseline" not in calib:
+        return None
+    cam0 = np.asarray(calib["cam0"], dtype=np.float64)
+    return {"fx": float(cam0[0, 0]), "fy": float(cam0[1, 1]), "cx": float(cam0[0, 2]),
+            "cy": float(cam0[1, 2]), "baseline": float(calib["baseline"]) / 1000.0}
 
 
 def fill_occlusion(sample: StereoSample) -> tuple[np.ndarray, str]:
@@ -120,6 +184,22 @@ class Layout:
     tools_root: str = ""
     sample_parent: str = ""
     placed: tuple[str, ...] = ()
+    #: Whether stereoforge writes it (``--format``); read-only layouts only read trees.
+    writable: bool = True
+    #: The ``--real`` SPEC form that names its trees (``eth3d:DIR``); None: no SPEC of its own.
+    spec_form: str | None = None
+    #: The metric the field reports on its real scenes (:data:`synth.formats.METRICS`).
+    metric: str = "bad2"
+
+    @property
+    def kind(self) -> str:
+        """What kind of scene a sample of it is, as results and records name it."""
+        return self.name
+
+    @property
+    def scheme(self) -> str | None:
+        """The SPEC's prefix (``eth3d`` of ``eth3d:DIR``), or None."""
+        return None if self.spec_form is None else self.spec_form.partition(":")[0]
 
     @property
     def writes_as(self) -> str:
@@ -215,17 +295,72 @@ class Layout:
         """The keys of every sample with ground truth in a tree of this layout, sorted."""
         raise NotImplementedError
 
-    def read(self, root: Path, index: int) -> StereoSample:
+    def recognises(self, root: Path) -> bool:
+        """Whether ``root`` is a tree of this layout (what :meth:`detect` asks); default: no."""
+        return False
+
+    @staticmethod
+    def detect(folder: Path, *, among: Sequence[str] | None = None) -> Layout | None:
+        """The first layout (registry order; only those named in ``among``) that recognises
+        ``folder`` (:meth:`recognises`), or None: the one place a folder's format is guessed."""
+        from synth.formats import get_layout, layouts
+
+        candidates = layouts() if among is None else [get_layout(n) for n in among]
+        folder = Path(folder)
+        if not folder.is_dir():
+            return None
+        return next((layout for layout in candidates if layout.recognises(folder)), None)
+
+    def open_spec(self, spec: str, rest: str) -> list[SceneRef]:
+        """The samples ``spec`` (``<scheme>:<rest>``) names: by default ``rest`` is the root of
+        a tree of this layout, and every sample :meth:`discover` finds is one.
+
+        Raises
+        ------
+        ParameterError
+            ``rest`` is not a folder, or holds no sample with ground truth.
+        """
+        root = Path(rest)
+        if not root.is_dir():
+            raise spec_error(spec, f"{root} is not a folder; give the root of a tree in the "
+                                   f"{self.title} layout (see docs/formats.md)")
+        keys = self.discover(root)
+        if not keys:
+            raise spec_error(spec, f"no sample with ground truth in {root} in the {self.title} "
+                                   "layout (see docs/formats.md for its tree)")
+        return [self.ref(root, key, scene=f"{self.scheme}:{root.name}/{key}") for key in keys]
+
+    def ref(self, root: Path, key: str, *, scene: str, name: str | None = None,
+            divisor: float | None = None, note: str | None = None) -> SceneRef:
+        """A :class:`SceneRef` of this layout (``name``: the key's last part by default)."""
+        return SceneRef(self.name, str(root), key, scene, name or Path(key).name or Path(root).name,
+                        self.kind, divisor, note)
+
+    def read_ref(self, ref: SceneRef) -> StereoSample:
+        """The sample ``ref`` names (:meth:`read_key` of its root and key)."""
+        return self.read_key(Path(ref.root), ref.key)
+
+    def read(self, root: Path, index: int, *, extras: bool = False) -> StereoSample:
         """Sample ``index`` of a stereoforge dataset in ``root``: the layout's files, the
-        occlusion mask filled where the layout has none (:func:`fill_occlusion`), and
-        ``calib`` from the sample's ``scene.json``."""
+        occlusion mask filled where the layout has none (:func:`fill_occlusion`), ``calib``
+        from the sample's ``scene.json``, ``meta["ndisp"]`` from its ``calib.txt`` where it has
+        one and, with ``extras`` where the layout holds it, the optional ground truth
+        (:func:`synth.formats.extras.read_ground_truth`)."""
+        from matcher.io import read_calib
+        from synth.formats.extras import read_ground_truth
+
         sample = self.read_key(Path(root), self.key(index))
         mask, how = fill_occlusion(sample)
         folder = self.sample_dir(Path(root), index)
         rig = json.loads((folder / "scene.json").read_text())["rig"]
+        more = read_ground_truth(folder) if extras and self.capacity.extra_ground_truth else {}
+        meta = {**sample.meta, "occlusion": how}
+        if (folder / "calib.txt").is_file():  # the search range the sample was written with
+            meta["ndisp"] = int(read_calib(folder / "calib.txt")["ndisp"])
         return StereoSample(sample.left, sample.right, sample.disp_left, sample.disp_right,
-                            f"{int(index):06d}", {**sample.meta, "occlusion": how}, mask,
-                            calib=calib_from_rig(rig), flow_left=sample.flow_left)
+                            f"{int(index):06d}", meta, mask,
+                            calib=calib_from_rig(rig), flow_left=sample.flow_left,
+                            regions=sample.regions, extras=more)
 
     def __repr__(self) -> str:
         return f"<layout {self.name}: {self.title}>"

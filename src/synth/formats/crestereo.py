@@ -41,6 +41,7 @@ class CREStereoLayout(Layout):
 
     name = "crestereo"
     title = "CREStereo"
+    spec_form = "crestereo:DIR"
     capacity = Capacity(right_disparity=True, disp_quantum=1 / CRESTEREO_SCALE,
                         disp_max=CRESTEREO_MAX, lossless=False)
     tools_root = _ROOT
@@ -69,6 +70,12 @@ class CREStereoLayout(Layout):
                                  for s in _SUFFIXES[2:])
         return StereoSample(left, right, disp_left, disp_right, Path(key).name,
                             {"dataset": "crestereo", "layout": self.name, "path": key})
+
+    def recognises(self, root: Path) -> bool:
+        """``*_left.jpg`` with ``*_left.disp.png`` beside it, up to two levels below ``root``."""
+        return any((p.parent / p.name.replace("_left.jpg", "_left.disp.png")).is_file()
+                   for pattern in ("*_left.jpg", "*/*_left.jpg", "*/*/*_left.jpg")
+                   for p in Path(root).glob(pattern))
 
     def discover(self, root: Path) -> list[str]:
         """Every ``*_left.jpg`` under ``root`` (any depth) with its three other files."""

@@ -31,6 +31,9 @@ __all__ = ["FSDLayout", "LAYOUT", "FRAMES_PER_SCENE"]
 #: Frames of one scene folder.
 FRAMES_PER_SCENE = 1000
 _ROOT = "FSD"
+#: Where the left images are under the root a reader is given, in the order they are looked for.
+_PATTERNS = ("*/dataset/data/left/rgb/*.jpg", f"{_ROOT}/*/dataset/data/left/rgb/*.jpg",
+             "dataset/data/left/rgb/*.jpg", "left/rgb/*.jpg")
 
 
 
@@ -39,6 +42,7 @@ class FSDLayout(Layout):
 
     name = "fsd"
     title = "FoundationStereo FSD"
+    spec_form = "fsd:DIR"
     capacity = Capacity(right_disparity=False, disp_quantum=1 / FSD_SCALE, disp_max=FSD_MAX,
                         lossless=False)
     tools_root = _ROOT
@@ -68,13 +72,16 @@ class FSDLayout(Layout):
                             read_fsd_disparity(root / disp), None, Path(key).stem,
                             {"dataset": "fsd", "layout": self.name, "path": key})
 
+    def recognises(self, root: Path) -> bool:
+        """A left image of the layout (``*/dataset/data/left/rgb/*.jpg``, or one scene's)."""
+        return any(next(Path(root).glob(p), None) is not None for p in _PATTERNS)
+
     def discover(self, root: Path) -> list[str]:
         """Left images with a right image and a disparity under ``root`` (the folder of
         scenes), ``root/FSD``, or ``root`` being one scene's folder."""
         root = Path(root)
         found: list[Path] = []
-        for pattern in ("*/dataset/data/left/rgb/*.jpg", f"{_ROOT}/*/dataset/data/left/rgb/*.jpg",
-                        "dataset/data/left/rgb/*.jpg", "left/rgb/*.jpg"):
+        for pattern in _PATTERNS:
             found = sorted(root.glob(pattern))
             if found:
                 break

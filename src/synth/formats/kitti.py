@@ -12,6 +12,7 @@ steps of 1/256 px. Frame ``NNNNNN`` is sample ``NNNNNN``; the tools read ``train
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +21,7 @@ import numpy as np
 from matcher.io import (KITTI_MAX_DISPARITY, StereoSample, format_kitti_calib, load_kitti_2015,
                         read_kitti_calib, write_kitti)
 from scenes import plane_equation
-from synth.formats.base import Capacity, Layout
+from synth.formats.base import Capacity, Layout, SceneRef, spec_error
 
 __all__ = ["KittiLayout", "LAYOUT", "KITTI_ROOT", "kitti_calib_for", "foreground_map"]
 
@@ -66,10 +67,46 @@ class KittiLayout(Layout):
 
     name = "kitti"
     title = "KITTI 2015"
+    spec_form = "kitti:DIR[:FIRST-LAST]"
+    metric = "d1"
     capacity = Capacity(right_disparity=False, disp_quantum=1 / 256, disp_max=KITTI_MAX_DISPARITY)
     tools_root = KITTI_ROOT
     sample_parent = f"{KITTI_ROOT}/samples"
     placed = (KITTI_ROOT,)
+
+    @property
+    def kind(self) -> str:
+        return "kitti2015"
+
+    def recognises(self, root: Path) -> bool:
+        """A KITTI ``training/`` folder (``image_2/``, ``disp_occ_0/``), or the folder holding
+        one."""
+        return any((base / "image_2").is_dir() and (base / "disp_occ_0").is_dir()
+                   for base in (Path(root), Path(root) / KITTI_ROOT))
+
+    def open_spec(self, spec: str, rest: str) -> list[SceneRef]:
+        """``kitti:DIR[:FIRST-LAST]``: the frames of a KITTI 2015 ``training/`` folder (or of the
+        folder holding it) with ``disp_occ_0``, or those from FIRST to LAST."""
+        path, first, last = rest, 0, 999999
+        head, _, tail = rest.rpartition(":")
+        ranged = bool(head) and not Path(rest).is_dir()  # DIR:FIRST-LAST
+        if ranged:
+            bounds = re.fullmatch(r"([0-9]+)-([0-9]+)", tail)
+            if bounds is None or int(bounds.group(1)) > int(bounds.group(2)):
+                raise spec_error(spec, f"FIRST-LAST must be two frame numbers, FIRST <= LAST "
+                                       f"(e.g. 0-9), got {tail!r}")
+            path, first, last = head, int(bounds.group(1)), int(bounds.group(2))
+        root = Path(path)
+        if not (root / "image_2").is_dir() and (root / KITTI_ROOT / "image_2").is_dir():
+            root = root / KITTI_ROOT  # the folder holding training/
+        if not (root / "image_2").is_dir():
+            raise spec_error(spec, f"{root} is not a KITTI 2015 training folder (no image_2/); "
+                                   "give the folder holding image_2/, image_3/ and disp_occ_0/")
+        frames = [k for k in self.discover(root) if first <= int(k) <= last]
+        if not frames:
+            raise spec_error(spec, f"no KITTI frame with disp_occ_0/NNNNNN_10.png in {root}"
+                                   + (f" between {first} and {last}" if ranged else ""))
+        return [self.ref(root, k, scene=f"kitti:{root.name}/{k}") for k in frames]
 
     def check_rig(self, rig: Any, *, source: str) -> None:
         """KITTI rigs routinely reach past 255.996 px at their near plane (a car's bonnet), so

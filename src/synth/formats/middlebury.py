@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from matcher.io import (StereoSample, atomic_write_bytes, encode_flo, format_calib,
-                        load_middlebury_2014, read_flo, write_middlebury)
-from synth.formats.base import Capacity, Layout
+                        load_middlebury_2014, read_flo, read_image, write_middlebury)
+from synth.formats.base import Capacity, Layout, SceneRef, calib_from_middlebury, spec_error
 
-__all__ = ["MiddleburyLayout", "LAYOUT", "calib_for", "calib_txt"]
+__all__ = ["MiddleburyLayout", "LAYOUT", "SCENE_LAYOUTS", "calib_for", "calib_txt"]
 
 #: RAFT-Stereo's list of the Middlebury scenes to load, inside the MiddEval3 root.
 SCENE_LIST = "official_train.txt"
@@ -51,6 +51,16 @@ def calib_txt(pair: Any) -> bytes:
     return format_calib(calib_for(pair)).encode("ascii")
 
 
+#: The layouts of one Middlebury scene folder, in the order they are tried.
+SCENE_LAYOUTS = ("middlebury2014", "middlebury2005")
+#: Left ground-truth files of a Middlebury scene folder (2014 names, then 2005/2006).
+_TRUTH = ("disp0GT.pfm", "disp0.pfm", "disp1.png")
+
+
+def _has_truth(folder: Path) -> bool:
+    return any((folder / n).is_file() for n in _TRUTH)
+
+
 def _scene_folders(root: Path) -> list[Path]:
     """``root`` when it is a scene folder (``im0.png``), else the scene folders one or two
     levels below it (``root/<scene>``, ``root/MiddEval3/trainingF/<scene>``-like)."""
@@ -65,6 +75,7 @@ class MiddleburyLayout(Layout):
 
     name = "middlebury"
     title = "MiddEval3"
+    spec_form = "middlebury:DIR[:DIVISOR]"
     capacity = Capacity(right_disparity=True, flow=True, extra_ground_truth=True)
     tools_root = "MiddEval3"
     sample_parent = "MiddEval3/trainingF"
@@ -91,15 +102,76 @@ class MiddleburyLayout(Layout):
         return f"{self.sample_parent}/{int(index):06d}"
 
     def read_key(self, root: Path, key: str) -> StereoSample:
+        """The scene folder ``root/key``: :func:`matcher.io.load_middlebury_2014`, the exact
+        flow (``flow0.flo``) and validate's region masks (``mask_<region>.png``) when there."""
+        from matcher.regions import REGIONS
+
         folder = Path(root) / key
         s = load_middlebury_2014(folder)
         flow = read_flo(folder / "flow0.flo") if (folder / "flow0.flo").is_file() else None
+        regions = ({n: read_image(folder / f"mask_{n}.png") > 0 for n in REGIONS}
+                   if (folder / "mask_all.png").is_file() else None)
         return StereoSample(s.left, s.right, s.disp_left, s.disp_right, s.name,
-                            {**s.meta, "layout": self.name}, s.mask_left, flow_left=flow)
+                            {**s.meta, "layout": self.name}, s.mask_left,
+                            calib_from_middlebury(s.meta.get("calib")), flow, regions)
 
     def discover(self, root: Path) -> list[str]:
         root = Path(root)
         return [p.relative_to(root).as_posix() or "." for p in _scene_folders(root)]
+
+    def recognises(self, root: Path) -> bool:
+        """A Middlebury scene folder with ground truth (2014/MiddEval3 or 2005/2006), or a
+        folder holding such scene folders."""
+        return any(Layout.detect(f, among=SCENE_LAYOUTS) is not None and _has_truth(f)
+                   for f in (root, *sorted(p for p in root.iterdir() if p.is_dir())))
+
+    def open_spec(self, spec: str, rest: str) -> list[SceneRef]:
+        """``middlebury:DIR[:DIVISOR]``: a scene folder, or a folder of them, of the 2014 /
+        MiddEval3 layout (``im0.png``) or the 2005/2006 one (``view1.png``; DIVISOR codes per
+        pixel, inferred from the folder names when not given:
+        :mod:`synth.formats.middlebury2005`)."""
+        from synth.formats import get_layout
+
+        path, divisor, tail = rest, None, ""
+        head, _, tail = rest.rpartition(":")
+        if head and not Path(rest).is_dir():  # DIR:DIVISOR
+            path = head
+            try:
+                divisor = float(tail)
+            except ValueError:
+                divisor = math.nan
+            if not (math.isfinite(divisor) and divisor > 0):
+                raise spec_error(spec, f"DIVISOR must be a number > 0 (disparity = code / "
+                                       f"DIVISOR: 3 at third size), got {tail!r}")
+        root = Path(path)
+        if not root.is_dir():
+            raise spec_error(spec, f"{root} is not a folder; give a Middlebury scene folder or "
+                                   "a folder of them")
+        found = [(root, Layout.detect(root, among=SCENE_LAYOUTS))]
+        if found[0][1] is None:
+            found = [(p, Layout.detect(p, among=SCENE_LAYOUTS)) for p in sorted(root.iterdir())
+                     if p.is_dir()]
+            found = [(p, layout) for p, layout in found if layout is not None]
+        if not found:
+            raise spec_error(spec, f"no Middlebury scene in {root} (a scene folder holds "
+                                   "view1.png, view5.png, disp1.png (2005/2006) or im0.png, "
+                                   "im1.png, disp0GT.pfm (2014/MiddEval3))")
+        out = []
+        for folder, layout in found:
+            scene = f"middlebury:{folder.parent.name}/{folder.name}"
+            if layout is get_layout("middlebury2005"):
+                out.append(layout.scene_ref(spec, folder, scene=scene, divisor=divisor))
+                continue
+            if divisor is not None:
+                raise spec_error(spec, f"{folder} is in the 2014/MiddEval3 layout (im0.png), "
+                                       "whose ground truth is in pixels: it takes no DIVISOR; "
+                                       f"drop ':{tail}'")
+            if not _has_truth(folder):
+                raise spec_error(spec, f"{folder} has no ground truth: no disp0GT.pfm or "
+                                       "disp0.pfm (MiddEval3 or 2014 archive name); add it or "
+                                       "give another scene")
+            out.append(layout.ref(folder, ".", scene=scene))
+        return out
 
 
 LAYOUT = MiddleburyLayout()

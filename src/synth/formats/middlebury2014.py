@@ -12,6 +12,8 @@ named as in the archives (``disp0.pfm``, ``disp1.pfm``).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from synth.formats.middlebury import MiddleburyLayout
 
 __all__ = ["Middlebury2014Layout", "LAYOUT"]
@@ -25,6 +27,11 @@ class Middlebury2014Layout(MiddleburyLayout):
     tools_root = "2014"
     sample_parent = "2014"
     io_layout = "2014"
+    spec_form = None  # its scene folders are named by middlebury:DIR
+
+    def recognises(self, root: Path) -> bool:
+        """One scene folder of the 2014 / MiddEval3 layout (``im0.png``)."""
+        return (Path(root) / "im0.png").is_file()
 
     def finish_files(self, names: list[str]) -> dict[str, bytes]:
         return {}

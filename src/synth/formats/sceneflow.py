@@ -86,6 +86,7 @@ class SceneFlowLayout(Layout):
 
     name = "sceneflow"
     title = "SceneFlow (FlyingThings3D)"
+    spec_form = "sceneflow:DIR"
     capacity = Capacity(right_disparity=True)
     tools_root = _ROOT
     sample_parent = "samples"
@@ -141,6 +142,12 @@ class SceneFlowLayout(Layout):
         return StereoSample(left_image, right_image, disp_left, d1, Path(key).stem,
                             {"dataset": "sceneflow", "layout": self.name, "pass": pass_,
                              "path": key})
+
+    def recognises(self, root: Path) -> bool:
+        """A FlyingThings3D tree: ``frames_*pass/`` and ``disparity/`` under ``root``,
+        ``root/FlyingThings3D`` or ``root/SceneFlow/FlyingThings3D``."""
+        return any((base / "disparity").is_dir() and any((base / p).is_dir() for p in PASSES)
+                   for base in (root, root / "FlyingThings3D", root / _THINGS))
 
     def discover(self, root: Path) -> list[str]:
         """Left images of the final pass (else the clean pass) with a disparity PFM, under

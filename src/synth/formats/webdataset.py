@@ -22,6 +22,10 @@ class WebDatasetLayout(MiddleburyLayout):
                         sample_folders=False)
     tools_root = ".staging"
     sample_parent = ".staging"
+    spec_form = None  # shards are not read sample by sample
+
+    def recognises(self, root) -> bool:
+        return False
 
     @property
     def writes_as(self) -> str:

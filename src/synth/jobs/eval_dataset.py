@@ -48,12 +48,9 @@ def _root(folder: Path) -> tuple[Path, list[dict]]:
 
 
 def _load(root: Path, fmt: str, rec: dict) -> tuple:
-    """``(left, right, gt, occlusion mask, default max_disparity (a callable: calib.txt is read
-    only when needed), region mask folder or None)`` of a sample, read through its layout
-    (:meth:`synth.formats.base.Layout.read`); a missing file is a :exc:`DatasetError` naming
-    it."""
-    from matcher.io import read_calib
-    from synth.dataset.storage.layout import sample_dir
+    """``(left, right, gt, occlusion mask, default max_disparity, region masks or None)`` of a
+    sample, read through its layout (:meth:`synth.formats.base.Layout.read`); a missing file is
+    a :exc:`DatasetError` naming it."""
     from synth.formats import get_layout
     from synth.formats.base import ndisp_for
 
@@ -64,11 +61,8 @@ def _load(root: Path, fmt: str, rec: dict) -> tuple:
         raise DatasetError(f"{root}: sample {index}: {exc.filename} is missing; eval-dataset "
                            f"reads the {fmt} layout's files (see stereoforge dataset "
                            "--format)") from None
-    folder = sample_dir(root, fmt, index)
-    calib = folder / "calib.txt"
-    default = ((lambda: int(read_calib(calib)["ndisp"])) if calib.is_file()
-               else (lambda: ndisp_for(s.disp_left)))
-    return s.left, s.right, s.disp_left, s.mask_left, default, folder
+    default = s.meta["ndisp"] if "ndisp" in s.meta else ndisp_for(s.disp_left)
+    return s.left, s.right, s.disp_left, s.mask_left, default, s.regions
 
 
 def _cell(value: object) -> object:
@@ -83,8 +77,8 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     import hashlib
 
     from matcher.adapters import resolve_matcher
-    from matcher.io import atomic_write_bytes, read_image, write_pfm
-    from matcher.regions import REGIONS, region_scores
+    from matcher.io import atomic_write_bytes, write_pfm
+    from matcher.regions import region_scores
     from synth.dataset.storage.layout import dataset_format
     from synth.formats import FORMATS, get_layout
 
@@ -111,11 +105,11 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     writer.writerow(COLUMNS)
     try:
         for rec in records:
-            left, right, gt, occ, default, sample = _load(root, fmt, rec)
-            d = max_disparity or rec["params"].get("max_disparity") or default()
+            left, right, gt, occ, default, regions = _load(root, fmt, rec)
+            d = max_disparity or rec["params"].get("max_disparity") or default
             d = int(min(d, gt.shape[1] - 1))
-            if (sample / "mask_all.png").is_file():
-                masks = {n: read_image(sample / f"mask_{n}.png") > 0 for n in REGIONS}
+            if regions is not None:
+                masks = regions
             else:
                 import numpy as np
 

@@ -59,26 +59,37 @@ def evaluate_benchmarks(
     truth = read_disparity(gt, divisor=gt_divisor)
     occ = None if mask is None else _mask(mask)
     regions = ("all",) if occ is None else ("all", "nonocc")
+    objects = None if obj_map is None else read_grey_image(obj_map, what="obj_map",
+                                                            fix=_OBJ_MAP_FIX)
     report: dict[str, dict] = {}
     for name in benchmarks:
         note = {"convention": CONVENTIONS[name]}
-        if name == "middlebury":
-            for region in regions:
-                m = middlebury_v3(estimate, truth, occlusion_mask=occ, region=region, maxdisp=ndisp,
-                                  rounddisp=isint)
-                report[f"middlebury {region}"] = note | dataclasses.asdict(m)
-        elif name == "eth3d":
-            for region in regions:
-                m = eth3d_two_view(estimate, truth, occlusion_mask=occ, region=region)
-                report[f"eth3d {region}"] = note | dataclasses.asdict(m)
-        else:
-            objects = None if obj_map is None else read_grey_image(obj_map, what="obj_map",
-                                                                    fix=_OBJ_MAP_FIX)
-            k = kitti_2015(estimate, truth, occlusion_mask=occ, obj_map=objects)
-            report["kitti occ"] = note | dataclasses.asdict(k.occ)
-            if k.noc is not None:
-                report["kitti noc"] = note | dataclasses.asdict(k.noc)
+        for key, fields in _REPORTS[name](estimate, truth, occ, regions, objects, ndisp, isint):
+            report[key] = note | fields
     return report
+
+
+def _middlebury(estimate, truth, occ, regions, objects, ndisp, isint) -> list[tuple[str, dict]]:
+    return [(f"middlebury {region}", dataclasses.asdict(middlebury_v3(
+        estimate, truth, occlusion_mask=occ, region=region, maxdisp=ndisp, rounddisp=isint)))
+        for region in regions]
+
+
+def _eth3d(estimate, truth, occ, regions, objects, ndisp, isint) -> list[tuple[str, dict]]:
+    return [(f"eth3d {region}", dataclasses.asdict(eth3d_two_view(
+        estimate, truth, occlusion_mask=occ, region=region))) for region in regions]
+
+
+def _kitti(estimate, truth, occ, regions, objects, ndisp, isint) -> list[tuple[str, dict]]:
+    k = kitti_2015(estimate, truth, occlusion_mask=occ, obj_map=objects)
+    out = [("kitti occ", dataclasses.asdict(k.occ))]
+    if k.noc is not None:
+        out.append(("kitti noc", dataclasses.asdict(k.noc)))
+    return out
+
+
+#: Each benchmark's figures (``stereoforge eval --benchmark``), as its own code defines them.
+_REPORTS = {"middlebury": _middlebury, "kitti": _kitti, "eth3d": _eth3d}
 
 
 def evaluate_files(

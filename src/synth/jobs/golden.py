@@ -54,9 +54,10 @@ from typing import Any
 import numpy as np
 
 from matcher import match
-from matcher.io import atomic_write_bytes, decode_pfm, encode_pfm, load_middlebury_2014, read_pfm
+from matcher.io import atomic_write_bytes, decode_pfm, encode_pfm, read_pfm
 from matcher.metrics import evaluate
 from stereoforge.errors import FormatError, StereoforgeError
+from synth.formats import read_sample
 from synth._util.json_records import loads_json_object, read_json_object
 from synth.jobs.golden_compare import (
     TOLERANCES,
@@ -208,7 +209,7 @@ def _case_record(result: Any, gt: np.ndarray, mask: np.ndarray) -> dict:
 
 def _run_cases(scene_dir: Path) -> dict[str, tuple[np.ndarray, dict]]:
     """Every golden case on the stored pair in ``scene_dir``: name -> (disparity, record)."""
-    s = load_middlebury_2014(scene_dir)
+    s = read_sample(scene_dir)
     out = {}
     for method, window in GOLDEN_CASES:
         res = match(s.left, s.right, method=method, window=window, max_disparity=MAX_DISPARITY)
@@ -348,7 +349,7 @@ def _check_render(root: Path, manifest: dict, backend: str, failures: list[str]
         gl = {"backend": renderer.backend, "GL_RENDERER": renderer.gl_renderer,
               "GL_VERSION": renderer.gl_version}
         for scene in manifest["scenes"]:
-            stored = load_middlebury_2014(root / scene["name"])
+            stored = read_sample(root, scene["name"])
             fresh = render_pair(get_preset(scene["preset"], seed=scene["seed"]), rig,
                                 renderer=renderer)
             out.append(compare_render(scene["name"], fresh, stored, mine))

@@ -138,12 +138,12 @@ def error_maps(out_dir: Path, row: dict) -> str:
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
-    from matcher.io import read_image, read_pfm
+    from matcher.io import read_pfm
+    from synth.validate.pairs import read_pair_folder
 
     plt = _pyplot()
-    folder = out_dir / row["sample"]
-    left = read_image(folder / "im0.png")
-    gt = read_pfm(folder / "disp0GT.pfm").astype(np.float64)
+    left, _, gt, _ = read_pair_folder(out_dir / row["sample"])
+    gt = gt.astype(np.float64)
     est = (read_pfm(out_dir / row["estimate"]).astype(np.float64) if row["estimate"]
            else np.full(gt.shape, np.inf))
     known, estimated = np.isfinite(gt), np.isfinite(est)

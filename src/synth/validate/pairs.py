@@ -210,11 +210,19 @@ def verify_pair_folder(spec: Any, out: Path) -> dict | None:
 
 def read_pair_folder(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray,
                                             dict[str, np.ndarray]]:
-    """``left, right, gt, masks`` of a pair folder (RGB uint8 images, float32 GT, bool masks)."""
-    from matcher.io import read_image, read_pfm
-    from matcher.regions import REGIONS
+    """``left, right, gt, masks`` of a pair folder (RGB uint8 images, float32 GT, bool masks),
+    read as the Middlebury scene folder it is (:func:`synth.formats.read_sample`).
 
-    left, right = read_image(folder / "im0.png"), read_image(folder / "im1.png")
-    gt = read_pfm(folder / "disp0GT.pfm")
-    masks = {n: read_image(folder / f"mask_{n}.png") > 0 for n in REGIONS}
-    return left, right, gt, masks
+    Raises
+    ------
+    DatasetError
+        The folder has no region masks (``mask_all.png``): it is not a validate pair folder.
+    """
+    from stereoforge.errors import DatasetError
+    from synth.formats import read_sample
+
+    s = read_sample(folder)
+    if s.regions is None:
+        raise DatasetError(f"{folder}: no region masks (mask_all.png), so it is not a validate "
+                           "pair folder; delete it and run validate again")
+    return s.left, s.right, s.disp_left, s.regions

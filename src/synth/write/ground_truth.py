@@ -1,7 +1,8 @@
 """Optional ground truth beyond disparity: depth, surface normals, instance and semantic masks,
 the right view's occlusion mask; rendered (a GT pass), never estimated from the images.
 
-Files (in a Middlebury scene folder; fields of a WebDataset shard, see docs/datasets.md):
+Files (in a Middlebury scene folder; fields of a WebDataset shard, see docs/datasets.md; written
+and read by :mod:`synth.formats.extras`):
 
 =================  ===================  ===================================================
 kind               file                 encoding
@@ -29,24 +30,19 @@ is in ``depth0.pfm``. Normals are the mesh's vertex normals interpolated across 
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from pathlib import Path
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
-from matcher.io import atomic_write_bytes, encode_png, encode_pfm
 from stereoforge.errors import ParameterError
+from synth.formats.extras import (GROUND_TRUTH, GT_FILES, ground_truth_bytes, read_ground_truth,
+                                  write_ground_truth)
 
 __all__ = ["GROUND_TRUTH", "GT_FILES", "SEMANTIC_CLASSES", "OTHER_CLASS", "check_ground_truth",
            "right_occlusion_mask", "semantic_lut", "render_ground_truth", "ground_truth_bytes",
-           "write_ground_truth"]
+           "read_ground_truth", "write_ground_truth"]
 
-#: The optional ground-truth kinds, in the order they are written.
-GROUND_TRUTH = ("depth", "normals", "instance", "semantic", "occlusion_right")
-#: File of each kind in a Middlebury scene folder.
-GT_FILES = {"depth": "depth0.pfm", "normals": "normals0.pfm", "instance": "instance0.png",
-            "semantic": "semantic0.png", "occlusion_right": "mask1nocc.png"}
 #: Semantic class ids: the index of the object's kind (``scenes.ObjectSpec.kind``).
 SEMANTIC_CLASSES = ("background", "plane", "box", "sphere", "cylinder", "moebius", "terrain")
 #: Semantic id of an object whose kind is not in :data:`SEMANTIC_CLASSES`.
@@ -118,20 +114,3 @@ def render_ground_truth(pair: Any, scene: Any, kinds: Iterable[str], *,
     if "occlusion_right" in kinds:
         out["occlusion_right"] = right_occlusion_mask(pair.disp_left, pair.disp_right)
     return out
-
-
-def ground_truth_bytes(arrays: Mapping[str, np.ndarray]) -> dict[str, bytes]:
-    """File name -> bytes of each array of :func:`render_ground_truth`."""
-    return {GT_FILES[k]: (encode_pfm(a) if GT_FILES[k].endswith(".pfm") else encode_png(a))
-            for k, a in arrays.items()}
-
-
-def write_ground_truth(folder: str | Path, arrays: Mapping[str, np.ndarray], *,
-                       fsync: bool = True) -> list[Path]:
-    """Write the arrays into a Middlebury scene folder (atomically, one file each)."""
-    written = []
-    for name, data in ground_truth_bytes(arrays).items():
-        path = Path(folder) / name
-        atomic_write_bytes(path, data, fsync=fsync)
-        written.append(path)
-    return written

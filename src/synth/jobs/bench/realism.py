@@ -71,20 +71,18 @@ def _bad3(left: np.ndarray, right: np.ndarray, gt: np.ndarray, max_disparity: in
 
 
 def _real_rows(data: Path | None) -> list[dict]:
-    from matcher.io import load_middlebury_2005
+    from synth.formats import resolve_spec
 
     rows = []
     if data is not None:
         for scene in REAL_SCENES:
-            s = load_middlebury_2005(data / "third" / scene, divisor=3)
+            (ref,) = resolve_spec(f"middlebury:{data / 'third' / scene}:3")
+            s = ref.read()
             rows.append({"set": "middlebury-third", "sample": scene, "max_disparity": _THIRD_RANGE,
                          **_bad3(s.left, s.right, s.disp_left, _THIRD_RANGE)})
-    import skimage.data
-
-    left, right, disp = skimage.data.stereo_motorcycle()
-    gt = np.where(np.isfinite(disp), disp, np.inf).astype(np.float32)
+    s = resolve_spec("skimage:motorcycle")[0].read()
     rows.append({"set": "motorcycle-2014", "sample": "Motorcycle", "max_disparity":
-                 _MOTORCYCLE_RANGE, **_bad3(left, right, gt, _MOTORCYCLE_RANGE)})
+                 _MOTORCYCLE_RANGE, **_bad3(s.left, s.right, s.disp_left, _MOTORCYCLE_RANGE)})
     return rows
 
 

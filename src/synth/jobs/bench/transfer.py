@@ -70,22 +70,22 @@ class TransferResult:
     post_processing: str = ""
 
 
-def _real_specs(data: Path | None) -> list[str]:
-    specs = [f"middlebury:{data / 'third' / s}:3" for s in _SCENES] if data is not None else []
-    return [*specs, "skimage:motorcycle"]
+def _real_specs(data: Path | None) -> list[tuple[str, int]]:
+    """The real scenes (SPECs) the models are scored on, each with its search range."""
+    specs = [(f"middlebury:{data / 'third' / s}:3", _THIRD_RANGE) for s in _SCENES] \
+        if data is not None else []
+    return [*specs, ("skimage:motorcycle", _MOTORCYCLE_RANGE)]
 
 
-def _scenes(specs: Sequence[str]) -> list[dict]:
+def _scenes(specs: Sequence[tuple[str, int]]) -> list[dict]:
     from synth.validate.real import resolve_real
 
     out = []
-    for spec in specs:
+    for spec, max_disparity in specs:
         (scene,) = resolve_real([spec])
         left, right, gt, mask, _ = scene.load()
-        name = scene.path.rstrip("/").split("/")[-1] if scene.kind != "skimage" else "Motorcycle"
-        out.append({"name": name, "spec": spec, "left": left, "right": right, "gt": gt,
-                    "mask": mask, "max_disparity": _MOTORCYCLE_RANGE if scene.kind == "skimage"
-                    else _THIRD_RANGE})
+        out.append({"name": scene.ref.name, "spec": spec, "left": left, "right": right, "gt": gt,
+                    "mask": mask, "max_disparity": max_disparity})
     return out
 
 

@@ -24,9 +24,10 @@ from matplotlib.figure import Figure
 from matcher.adaptive import match_awct
 from matcher.cthw import HH_THRESHOLD, match_cthw
 from matcher.edges import canny_edges
-from matcher.io import atomic_write_bytes, load_middlebury_2005, save_figure_atomic
+from matcher.io import atomic_write_bytes, save_figure_atomic
 from matcher.match import match
 from matcher.metrics import evaluate
+from synth.formats import resolve_spec
 from synth.jobs.paper.figures import PAPER_COLUMNS, fig_colour_maps, fig_pobmp_window, table1_with_paper
 from synth._util.progress import progress as progress_bar
 
@@ -330,7 +331,8 @@ def run_paper(
         return m.pobmp, m.rms
 
     for scene in scenes:
-        sample = load_middlebury_2005(root / scene, divisor=divisor)
+        (ref,) = resolve_spec(f"middlebury:{root / scene}:{divisor:g}")
+        sample = ref.read()
         gt = sample.disp_left
         left, right = sample.left, sample.right
         shown: dict[str, np.ndarray] = {}

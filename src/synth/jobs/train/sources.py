@@ -6,10 +6,11 @@ A source string is one of
 - a stereoforge dataset folder (``stereoforge dataset``, any format with sample folders), read
   through :class:`synth.StereoDataset`; its ``train`` split
   is learned from, its ``val`` split gives the validation loss;
-- ``middlebury:DIR[:DIVISOR]``, ``kitti:DIR``, ``skimage:motorcycle``, ``sceneflow:DIR``,
-  ``crestereo:DIR``, ``fsd:DIR`` — real scenes (or any tree of those layouts), read through
+- ``middlebury:DIR[:DIVISOR]``, ``kitti:DIR``, ``eth3d:DIR``, ``drivingstereo:DIR``,
+  ``skimage:motorcycle``, ``sceneflow:DIR``, ``crestereo:DIR``, ``fsd:DIR`` — real scenes (or
+  any tree of those layouts: :func:`synth.formats.spec_forms`), read through
   :func:`synth.validate.real.resolve_real` (as ``validate --real`` reads them); a plain path
-  to such a folder is recognised too. All of
+  to such a folder is recognised too (:meth:`synth.formats.base.Layout.detect`). All of
   their scenes are learned from (no validation split). Pixels visible in both views come from the
   scene's own mask, else from a left-right check of its ground truths (the left one warped to
   the right view when there is no right one: :func:`matcher.regions.occlusion_from_disparities`).
@@ -154,7 +155,7 @@ def _real(spec: str) -> TrainSource:
     try:
         scenes = resolve_real([spec])
     except ParameterError as exc:
-        raise DatasetError(f"training data {exc}") from None
+        raise DatasetError(f"training data {str(exc).removeprefix('--real ')}") from None
     pairs, digest = [], hashlib.sha256()
     for scene in scenes:
         left, right, gt, mask, _how = scene.load()
@@ -183,31 +184,31 @@ def open_source(spec: str, *, val_fraction: float = 0.1) -> TrainSource:
     FileNotFoundError
         No such path.
     """
-    from synth.validate.real import SCHEMES
+    from synth.formats import spec_forms
+    from synth.formats.base import Layout
 
-    if spec.partition(":")[0] in SCHEMES and ":" in spec:
+    forms = spec_forms()
+    if spec.partition(":")[0] in forms and ":" in spec:
         return _real(spec)
     root = Path(spec).expanduser()
     if not root.exists():
         raise FileNotFoundError(f"training data {spec}: no such folder; give a stereoforge "
                                 "dataset (stereoforge dataset CONFIG --out DIR) or "
-                                "middlebury:DIR, kitti:DIR, skimage:motorcycle")
+                                f"{', '.join(forms.values())}")
     if (root / "dataset.json").is_file():
         return _dataset(spec, root, val_fraction)
-    if (root / "training" / "disp_occ_0").is_dir():
-        return _real(f"kitti:{root / 'training'}")
-    if (root / "disp_occ_0").is_dir():
-        return _real(f"kitti:{spec}")
-    if root.is_dir() and any((d / g).is_file() for d in (root, *root.iterdir()) if d.is_dir()
-                             for g in ("disp1.png", "disp0GT.pfm", "disp0.pfm")):
-        return _real(f"middlebury:{spec}")
+    layout = Layout.detect(root)
+    if layout is not None and layout.scheme is not None:
+        return _real(f"{layout.scheme}:{spec}")
     if any((root / n).exists() or any(root.glob(f"*/{n}")) for n in _IMAGES_ONLY):
         raise DatasetError(f"training data {spec}: {root} holds stereo images but no ground-truth "
                            "disparity (disp0GT.pfm, disp1.png or disp_occ_0/); train learns from "
                            "ground truth: give a stereoforge dataset or a training folder")
     raise DatasetError(f"training data {spec}: {root} is neither a stereoforge dataset (no "
-                       "dataset.json) nor a Middlebury or KITTI folder with ground truth (no "
-                       "view1.png + disp1.png, im0.png + disp0GT.pfm, or disp_occ_0/)")
+                       "dataset.json) nor a folder of real scenes with ground truth (no "
+                       "view1.png + disp1.png, im0.png + disp0GT.pfm, disp_occ_0/, "
+                       "two_view_training/, disparity_maps/, ...); or name its layout: "
+                       f"{', '.join(forms.values())}")
 
 
 def open_sources(specs: list[str] | tuple[str, ...], *, val_fraction: float = 0.1
