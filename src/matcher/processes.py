@@ -30,6 +30,7 @@ from typing import Any, Callable
 import numpy as np
 
 from matcher.failures import MatcherError, MatcherFailure, describe, one_line
+from stereoforge.errors import StereoforgeError
 
 __all__ = ["PLACEHOLDERS", "PythonChild", "child_main", "die_with_parent", "load_target",
            "opencv_disparity", "run_program", "wrap_callable"]

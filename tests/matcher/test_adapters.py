@@ -200,6 +200,9 @@ def test_program_matcher_png_and_failures(tmp_path, pair):
     assert bad.run(*pair, max_disparity=8).error.startswith("crashed: exit status 3")
     silent = resolve_matcher(f'cmd:{sys.executable} -c "pass" {{left}} {{right}} {{out}}')
     assert silent.run(*pair, max_disparity=8).error == "wrote no {out} file (exit status 0)"
+    garbage = resolve_matcher(f'cmd:{sys.executable} -c "import sys; open(sys.argv[1], \'w\')'
+                              f'.write(\'not a pfm\')" {{out}} {{left}} {{right}}')
+    assert garbage.run(*pair, max_disparity=8).error.startswith("wrote an unreadable disp0.pfm: ")
     slow = resolve_matcher(f'cmd:sleep 30; echo {{left}} {{right}} {{out}}', timeout=0.5)
     start = time.perf_counter()
     assert slow.run(*pair, max_disparity=8).error == "timed out after 0.5 s"
