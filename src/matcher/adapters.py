@@ -221,7 +221,7 @@ def _learned(spec: str, timeout: float) -> Matcher:
     options = _learned_options(spec, query) if sep else {}
     try:
         from matcher.learned import ModelError, load_model
-        from matcher.learned.device import resolve_device
+        from matcher.learned.device import device_name
     except ImportError as exc:
         raise MatcherError(f"matcher {spec!r}: learned matchers need PyTorch ({one_line(exc)}); "
                            "install the extra: pip install 'stereoforge[learn]'") from None
@@ -232,7 +232,7 @@ def _learned(spec: str, timeout: float) -> Matcher:
     else:
         value, what = os.environ.get(DEVICE_ENV, "").strip() or "auto", f"{DEVICE_ENV}"
     try:
-        device = resolve_device(value, what)
+        device = device_name(value, what)
     except ParameterError as exc:
         raise MatcherError(str(exc)) from None
     try:

@@ -378,8 +378,6 @@ def test_weights_that_are_not_finite_are_refused_on_save_and_on_load(tmp_path, v
 ])
 def test_header_sizes_are_bounded_before_anything_is_allocated(tmp_path, monkeypatch, channels,
                                                                 layers, words):
-    from matcher.learned import model as model_module
-
     blob = torch.load(save_model(tmp_path / "good.pt", _model().net, {}), weights_only=True)
     blob["header"]["architecture"].update(channels=channels, layers=layers)
     bad = _write_other(tmp_path / "bad.pt", blob)
@@ -387,7 +385,7 @@ def test_header_sizes_are_bounded_before_anything_is_allocated(tmp_path, monkeyp
     def no_network(arch):  # a network the header sized would be allocated here
         raise AssertionError(f"a network of {arch} was built from an unchecked header")
 
-    monkeypatch.setattr(model_module, "PatchNet", no_network)
+    monkeypatch.setattr(Architecture, "network", no_network)
     with pytest.raises(ModelError) as info:
         load_model(bad)
     assert words in str(info.value) and str(bad) in str(info.value)

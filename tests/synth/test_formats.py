@@ -358,3 +358,21 @@ def test_compare_across_layouts_on_the_command_line(datasets):
                                               "truth within the quantum, calibration)")
     result = CliRunner().invoke(main, ["dataset", "--compare", a, b, "--bytes"])
     assert result.exit_code == 2 and "cannot be byte-identical" in result.output
+
+
+def test_a_sceneflow_dataset_too_small_for_a_test_split_says_so(tmp_path, renderer):
+    from click.testing import CliRunner
+
+    from synth.cli import main
+
+    layout = get_layout("sceneflow")
+    assert layout.count_note(22) is None and layout.count_note(10**5) is None
+    assert "with 21 sample(s) the TEST split is empty" in layout.count_note(21)
+    assert all(get_layout(n).count_note(1) is None for n in DATASET_FORMATS if n != "sceneflow")
+    result = CliRunner().invoke(main, [
+        "dataset", "planes", "--format", "sceneflow", "--count", "2", "--size", "32x24",
+        "--out", str(tmp_path / "sf")])
+    assert result.exit_code == 0, result.output
+    notes = [x for x in result.stderr.splitlines() if x.startswith("note: --format sceneflow")]
+    assert len(notes) == 1 and "render --count 22 or more for a TEST split" in notes[0]
+    assert not list((tmp_path / "sf").glob("SceneFlow/FlyingThings3D/*/TEST"))

@@ -1,4 +1,4 @@
-"""Optional ground truth (synth.write.ground_truth): rendered labels against per-object renders,
+"""Optional ground truth (synth.write.extra_ground_truth): rendered labels against per-object renders,
 normals of known planes, the right view's mask, the dataset option, StereoDataset and shards
 carrying it."""
 
@@ -14,8 +14,10 @@ import scenes
 from stereoforge.errors import ConfigError, ParameterError
 from synth.dataset.config.parse import loads_config
 from synth.dataset.run import run_dataset
-from synth.write.ground_truth import (GROUND_TRUTH, SEMANTIC_CLASSES, check_ground_truth,
-                                render_ground_truth, right_occlusion_mask, semantic_lut)
+from synth.formats.extras import GROUND_TRUTH
+from synth.write.extra_ground_truth import (SEMANTIC_CLASSES, check_extra_kinds,
+                                            render_ground_truth, right_occlusion_mask,
+                                            semantic_lut)
 from synth.pair import occlusion_mask, render_pair
 from synth.camera.rig import StereoRig
 
@@ -26,9 +28,9 @@ def test_config_kinds_are_the_library_kinds():
     from synth.dataset.config import keys as config_keys
 
     assert config_keys.GROUND_TRUTH_KINDS == GROUND_TRUTH
-    assert check_ground_truth("semantic,depth") == ("depth", "semantic")
+    assert check_extra_kinds("semantic,depth") == ("depth", "semantic")
     with pytest.raises(ParameterError, match="expected distinct kinds"):
-        check_ground_truth(["depth", "depth"])
+        check_extra_kinds(["depth", "depth"])
     with pytest.raises(ConfigError, match="ground_truth"):
         loads_config('ground_truth = ["depth", "albedo"]\n')
 

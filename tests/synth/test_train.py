@@ -272,17 +272,33 @@ def _rows(path: Path) -> list[dict]:
 
 
 @pytest.mark.slow
-def test_bench_transfer_trains_scores_and_draws(tmp_path):
-    """A tiny run: one config, one seed, no ceiling, Motorcycle only (no Middlebury folder)."""
+@pytest.mark.realdata
+def test_bench_transfer_trains_scores_and_draws(tmp_path, dev_data_dir):
+    """A tiny run: one config, one seed, no ceiling, Motorcycle only (no Middlebury folder),
+    and two real sets of the development scenes scored by their field's metric."""
     config = tmp_path / "tiny.toml"
     config.write_text(CONFIG.replace("count = 14", "count = 4"))
     env = {**os.environ, "STEREOFORGE_MIDDLEBURY": str(tmp_path / "none")}
     out = tmp_path / "bench"
+    eth = tmp_path / "eth3d"  # two of the seven scenes: a short run
+    for tree in ("two_view_training", "two_view_training_gt"):
+        for scene in ("delivery_area_1s", "terrace_1s"):
+            (eth / tree).mkdir(parents=True, exist_ok=True)
+            os.symlink(dev_data_dir / "eth3d" / tree / scene, eth / tree / scene)
     r = _cli(["bench", "transfer", "--configs", str(config), "--count", "4", "--minutes", "0.3",
-              "--no-ceiling", "--out", str(out)], env=env)
+              "--no-ceiling", "--out", str(out), "--real", f"eth3d:{eth}",
+              "--real", f"kitti:{dev_data_dir / 'kitti2015'}"], env=env)
     assert r.returncode == 0, r.stderr
     summary = _rows(out / "transfer.csv")
     assert [row["method"] for row in summary] == ["CT-9", "CT-21", "SGBM-5", "learned on tiny"]
+    real = _rows(out / "transfer-real.csv")
+    assert len(real) == 4 * 3 and {r["metric"] for r in real if r["set"] == "eth3d"} == \
+        {"bad1_nonocc"} and {r["metric"] for r in real if r["set"] == "kitti"} == {"d1"}
+    for row in summary:  # the set's column is the mean of its scenes' rows
+        values = [float(r["value"]) for r in real if r["method"] == row["method"]
+                  and r["set"] == "eth3d"]
+        assert float(row["eth3d bad1_nonocc"]) == pytest.approx(np.mean(values), abs=0.006)
+        assert 0 <= float(row["kitti d1"]) <= 100
     scenes = _rows(out / "transfer-scenes.csv")
     assert {row["scene"] for row in scenes} == {"Motorcycle"}
     assert all(0.0 <= float(row["bad3_all"]) <= 100.0 for row in scenes)
@@ -305,7 +321,7 @@ def test_bench_transfer_trains_scores_and_draws(tmp_path):
 def test_one_pass_step_equals_the_crop_by_crop_step(data):
     """The GPU's step (a batch in one pass, patches sampled at once) on the CPU: the same loss
     and gradients as the CPU's crop-by-crop step, up to float rounding."""
-    from synth.jobs.train.loop import _batch_loss, _one_pass_loss
+    from synth.jobs.train.steps import batch_loss as _batch_loss, one_pass_loss as _one_pass_loss
 
     batch = PatchBatches(open_sources([str(data)]), seed=4, radius=3, crops=6)[2]
     assert len({c.right.shape[1] for c in batch}) > 1  # strips of several widths: padding
@@ -414,12 +430,16 @@ def _no_gpu_device() -> str:
     ({"minutes": float("inf"), "steps": None}, "--minutes: expected a finite number in (0, "),
     ({"minutes": float("nan"), "steps": None}, "--minutes: expected a finite number"),
     ({"steps": 10**12}, "--steps: expected an integer in [1, 1000000000]"),
-    ({"channels": 1025}, "channels: expected an integer 1..1024, got 1025"),
-    ({"layers": 33}, "layers: expected an integer 1..32, got 33"),
+    ({"arch_options": {"channels": 1025}}, "channels: expected an integer 1..1024, got 1025"),
+    ({"arch_options": {"layers": 33}}, "layers: expected an integer 1..32, got 33"),
+    ({"arch_options": {"width": 3}}, "the mccnn-fast network has no option 'width'; its options: "
+                                     "channels, layers"),
+    ({"arch": "raft"}, "--arch: no network architecture 'raft'; architectures: mccnn-fast"),
     ({"crops": 10**6}, "--crops: expected an integer in [1, 4096]"),
     ({"seed": 2**64}, "--seed: expected an integer in [0, 9223372036854775807]"),
-    ({"crop": 300}, "--crop 300 with --layers 4 needs images of at least 308x308 pixels"),
-    ({"crop": 90, "layers": 4}, "the smallest of"),
+    ({"crop": 300}, "--crop 300 with the mccnn-fast network of 32 maps x 4 layers (9x9 patches) "
+                    "needs images of at least 308x308 pixels"),
+    ({"crop": 90, "arch_options": {"layers": 4}}, "the smallest of"),
     ({"device": "foo"}, "--device: expected auto, cpu, cuda or cuda:N, got 'foo'"),
     ({"device": _no_gpu_device()}, "--device: '"),
     ({"workers": -1}, "--workers: expected an integer in [0, 256]"),
@@ -464,7 +484,8 @@ def test_the_training_split_holds_no_validation_sample(data):
 def test_a_checkpoint_replaces_the_old_one_atomically(data, tmp_path):
     """Written in place, a checkpoint cut by a kill is lost with the one before it; replaced by
     a rename, the old file (here also reachable by a hard link) is never touched."""
-    from synth.jobs.train.loop import TrainConfig, _save_checkpoint, _State
+    from synth.jobs.train.checkpoint import State as _State, save_checkpoint as _save_checkpoint
+    from synth.jobs.train.config import TrainConfig
 
     sources = open_sources([str(data)])
     cfg = TrainConfig(sources=(str(data),), out=str(tmp_path / "m.pt"), steps=3)
@@ -499,8 +520,9 @@ def test_memory_that_cannot_be_had_is_an_environment_error(data, tmp_path):
                        timeout=600)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
-    assert re.match(r"Error: out of memory: could not allocate [0-9.]+ GiB for the network of "
-                    r"1024 maps x 4 layers on a batch of 512 crops of 80x80 pixels", lines[-1]), \
+    assert re.match(r"Error: out of memory: could not allocate [0-9.]+ GiB for the mccnn-fast "
+                    r"network of 1024 maps x 4 layers \(9x9 patches\) on a batch of 512 crops of "
+                    r"80x80 pixels", lines[-1]), \
         lines[-1]
     assert not out.exists()
 
@@ -514,6 +536,9 @@ def test_memory_that_cannot_be_had_is_an_environment_error(data, tmp_path):
     ({"minutes": float("inf")}, "--minutes: expected a finite number"),
     ({"seeds": []}, "--seeds: give at least one seed"),
     ({"steps": 0}, "--steps: expected an integer in [1, 1000000000], got 0"),
+    ({"real": ["eth3d:/nonexistent/eth3d"], "ceiling": False}, "--real 'eth3d:/nonexistent/eth3d'"
+                                                               ": /nonexistent/eth3d is not a "
+                                                               "folder"),
 ])
 def test_bench_transfer_refuses_bad_arguments_before_rendering(tmp_path, option, words):
     from synth.jobs.bench.transfer import bench_transfer
@@ -522,3 +547,83 @@ def test_bench_transfer_refuses_bad_arguments_before_rendering(tmp_path, option,
         bench_transfer(**{"configs": ["flying"], "count": 2, "minutes": 0.1, "out": tmp_path,
                           **option})
     assert list(tmp_path.iterdir()) == []
+
+
+#: A second architecture, in a file of its own: one registration makes it trainable, savable,
+#: loadable and a MATCHER (docs/extending.md).
+TINY_NET = '''\
+from dataclasses import dataclass
+from typing import ClassVar
+
+from torch import nn
+from torch.nn import functional as F
+
+from matcher.learned import Arch, register_architecture
+from matcher.learned.registry import Option
+
+
+class TinyNet(nn.Module):
+    def __init__(self, arch):
+        super().__init__()
+        self.arch = arch
+        self.conv = nn.Conv2d(1, arch.width, 2 * arch.radius + 1)
+
+    def forward(self, x):
+        return F.normalize(self.conv(x), dim=1)
+
+
+@register_architecture
+@dataclass(frozen=True)
+class Tiny(Arch):
+    NAME: ClassVar[str] = "tiny-test"
+    OPTIONS: ClassVar[tuple] = (Option("width", 6, 1, 64, "features"),
+                                Option("radius", 2, 1, 5, "halo: a (2r+1)^2 kernel"))
+    width: int = 6
+    radius: int = 2
+
+    halo = property(lambda self: self.radius)
+    features = property(lambda self: self.width)
+    weights = property(lambda self: self.width * ((2 * self.radius + 1) ** 2 + 1))
+
+    def network(self):
+        return TinyNet(self)
+'''
+
+
+def test_a_second_architecture_is_one_file_and_one_registration(data, tmp_path, monkeypatch):
+    (tmp_path / "tiny_arch.py").write_text(TINY_NET)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(tmp_path), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    boot = [sys.executable, "-c", "import tiny_arch; from synth.cli import main; main()"]
+    out = tmp_path / "tiny.pt"
+    r = subprocess.run(boot + ["train", str(data), "--out", str(out), "--steps", "3", "--crops",
+                               "2", "--workers", "0", "--device", "cpu", "--arch", "tiny-test",
+                               "--arch-option", "width=5"], capture_output=True, text=True,
+                       env=env)
+    assert r.returncode == 0, r.stderr
+    assert "tiny-test network of width 5, radius 2 (5x5 patches)" in r.stderr
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import tiny_arch  # noqa: F401 - registers it in this process too
+
+    model = load_model(out)
+    assert model.header["architecture"] == {"name": "tiny-test", "width": 5, "radius": 2}
+    assert model.arch.halo == 2 and model.arch.features == 5
+    sample = StereoDataset(data)[0]
+    est = match_learned(sample["left"], sample["right"], model, max_disparity=32)
+    assert est.disparity.shape == sample["disp"].shape and est.window == 5
+    assert resolve_matcher(f"learned:{out}")(sample["left"], sample["right"],
+                                             max_disparity=32).shape == sample["disp"].shape
+    # an option it lacks, one out of range: one line each, before any work
+    for option, words in (("layers=3", "the tiny-test network has no option 'layers'; its "
+                                       "options: width, radius"),
+                          ("radius=9", "radius: expected an integer 1..5, got 9")):
+        r = subprocess.run(boot + ["train", str(data), "--out", str(tmp_path / "x.pt"), "--steps",
+                                   "1", "--arch", "tiny-test", "--arch-option", option],
+                           capture_output=True, text=True, env=env)
+        assert r.returncode == 2 and r.stderr.strip().splitlines()[-1].startswith("Error:"), r.stderr
+        assert words in r.stderr and not (tmp_path / "x.pt").exists()
+    # a process that never registered it reads the file as another program's model
+    r = _cli(["match", str(tmp_path / "nope.png"), "x.png", "--matcher", f"learned:{out}",
+              "--out", str(tmp_path / "d.pfm")])
+    assert r.returncode != 0 and "architecture 'tiny-test', this version of stereoforge reads " \
+        "'mccnn-fast' models" in r.stderr, r.stderr

@@ -38,7 +38,7 @@ def features(model: LearnedModel, image: np.ndarray, *, device: str | torch.devi
     """Unit feature vectors of every pixel of one view.
 
     The view is standardised (:func:`matcher.learned.network.standardise`), padded by the
-    network's half patch with its edge replicated (as census pads), and run through the network
+    network's halo (:attr:`matcher.learned.registry.Arch.halo`) with its edge replicated (as census pads), and run through the network
     in strips of rows.
 
     Parameters
@@ -61,11 +61,11 @@ def feature_tensor(model: LearnedModel, image: np.ndarray, *,
                    device: str | torch.device = "cpu") -> torch.Tensor:
     """:func:`features` as an (H, C, W) float32 tensor left on ``device``."""
     grey = check_image(image, "image")
-    r = model.arch.layers
+    r = model.arch.halo
     h, w = grey.shape
     padded = np.pad(standardise(grey), r, mode="edge")
     net = model.net.to(device)
-    out = torch.empty((h, model.arch.channels, w), dtype=torch.float32, device=device)
+    out = torch.empty((h, model.arch.features, w), dtype=torch.float32, device=device)
     rows = max(1, STRIP_PIXELS // max(w, 1))
     with torch.inference_mode():
         for y0 in range(0, h, rows):

@@ -15,7 +15,7 @@ import re
 
 from stereoforge.errors import ParameterError
 
-__all__ = ["DEVICES", "check_device", "resolve_device"]
+__all__ = ["DEVICES", "check_device", "device_name"]
 
 #: What a device value may be (the message of a refusal lists it).
 DEVICES = "auto, cpu, cuda or cuda:N"
@@ -63,8 +63,8 @@ def check_device(value: object, what: str = "device") -> str:
     return name
 
 
-def resolve_device(value: object, what: str = "device") -> str:
-    """The concrete device of ``value`` (:func:`check_device`): ``auto`` becomes ``cuda`` where
+def device_name(value: object, what: str = "device") -> str:
+    """The name of the concrete device of ``value`` (:func:`check_device`): ``auto`` becomes ``cuda`` where
     torch sees a GPU, else ``cpu``."""
     name = check_device(value, what)
     if name == "auto":

@@ -10,7 +10,7 @@ import torch
 from matcher._validation import check_image, check_max_disparity, check_same_shape
 from matcher.cost import aggregate_cost
 from matcher.learned.cost import COST_SCALE, feature_cost, feature_tensor
-from matcher.learned.device import resolve_device as _resolve
+from matcher.learned.device import device_name
 from matcher.learned.model import LearnedModel, check_inference, load_model
 from matcher.learned.volume import volume_disparity
 from matcher.result import MatchResult
@@ -28,14 +28,14 @@ PIPELINES = ("auto", "numba", "torch")
 
 def resolve_device(device: str) -> torch.device:
     """``"auto"`` (CUDA when torch sees a GPU, else the CPU), ``"cpu"``, ``"cuda"`` or
-    ``"cuda:N"`` (:func:`matcher.learned.device.resolve_device`) as a ``torch.device``.
+    ``"cuda:N"`` (:func:`matcher.learned.device.device_name`) as a ``torch.device``.
 
     Raises
     ------
     ParameterError
         An unknown name, or ``cuda`` without a GPU.
     """
-    return torch.device(_resolve(device))
+    return torch.device(device_name(device))
 
 
 def match_learned(left: np.ndarray, right: np.ndarray, model: LearnedModel | str | os.PathLike,

@@ -6,14 +6,15 @@ A model file is a ``torch.save`` archive of a dict::
      "header": {...}, "state_dict": {...}}
 
 read back with ``torch.load(..., weights_only=True)`` (no code runs on load). The header is plain
-JSON data: ``architecture`` (name, channels, layers, kernel, patch), ``input`` (how a view is
+JSON data: ``architecture`` (its name in :mod:`matcher.learned.registry` and its options:
+``mccnn-fast``'s channels, layers, kernel, patch), ``input`` (how a view is
 turned into the network's input), ``cost_scale`` (the quantisation of the cost), ``inference``
 (the default aggregation, left-right check and sub-pixel steps), ``training`` (the datasets'
 names and hashes, steps, patches, seed, minutes, device, torch version) and the
 ``stereoforge_version`` that wrote it.
 
 A file that is not such an archive (truncated, corrupt, another program's), or holds another
-architecture, an architecture beyond the one limit (:func:`matcher.learned.network.check_architecture`,
+architecture, an architecture beyond its limits (:meth:`matcher.learned.registry.Arch.from_header`,
 checked before the network is built: a header never sizes an allocation), inference steps out of
 range, or weights that do not fit its header or are not finite, raises :class:`ModelError` with
 one line naming the file and what is wrong.
@@ -29,7 +30,7 @@ from typing import Any
 import torch
 
 from matcher.io import atomic_write_bytes
-from matcher.learned.network import ARCHITECTURE, Architecture, PatchNet, check_architecture
+from matcher.learned.registry import Arch, architectures, get_architecture
 from stereoforge.errors import FormatError, ParameterError, ParameterTypeError
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "INFERENCE_DEFAULTS", "MAX_AGGREGATE", "LearnedModel",
@@ -57,20 +58,21 @@ class LearnedModel:
 
     Attributes
     ----------
-    net : PatchNet
-        In eval mode after :func:`load_model`.
+    net : torch.nn.Module
+        The network (:meth:`matcher.learned.registry.Arch.network`, its architecture as
+        ``net.arch``), in eval mode after :func:`load_model`.
     header : dict
         See the module docstring.
     path : Path or None
         Where it was read from.
     """
 
-    net: PatchNet
+    net: torch.nn.Module
     header: dict = field(default_factory=dict)
     path: Path | None = None
 
     @property
-    def arch(self) -> Architecture:
+    def arch(self) -> Arch:
         return self.net.arch
 
     @property
@@ -111,7 +113,7 @@ def _nonfinite(state: dict) -> str | None:
     return None
 
 
-def model_bytes(net: PatchNet, header: dict) -> bytes:
+def model_bytes(net: torch.nn.Module, header: dict) -> bytes:
     """The bytes of a model file for ``net`` (weights moved to the CPU) and ``header``.
 
     Raises
@@ -141,7 +143,7 @@ def model_bytes(net: PatchNet, header: dict) -> bytes:
     return buf.getvalue()
 
 
-def save_model(path: str | os.PathLike[str], net: PatchNet, header: dict) -> Path:
+def save_model(path: str | os.PathLike[str], net: torch.nn.Module, header: dict) -> Path:
     """Write a model file atomically (temporary name, then rename); returns its path."""
     path = Path(path)
     atomic_write_bytes(path, model_bytes(net, header))
@@ -152,19 +154,20 @@ def _fail(path: Path, what: str) -> ModelError:
     return ModelError(f"{path}: {what}; {_TRAIN_HINT}")
 
 
-def _architecture(path: Path, header: Any) -> Architecture:
+def _architecture(path: Path, header: Any) -> Arch:
     if not isinstance(header, dict) or not isinstance(header.get("architecture"), dict):
         raise _fail(path, "the model header has no architecture")
     arch = header["architecture"]
-    if arch.get("name") != ARCHITECTURE:
+    try:
+        cls = get_architecture(arch.get("name"), where="the header's architecture")
+    except ParameterError:
         raise _fail(path, f"architecture {arch.get('name')!r}, this version of stereoforge reads "
-                          f"{ARCHITECTURE!r} models")
-    if arch.get("kernel", 3) != 3 or header.get("input", INPUT) != INPUT:
-        raise _fail(path, f"a {ARCHITECTURE} variant this version does not read (kernel "
-                          f"{arch.get('kernel')!r}, input {header.get('input')!r})")
+                          f"{', '.join(repr(n) for n in architectures())} models") from None
+    if header.get("input", INPUT) != INPUT:
+        raise _fail(path, f"a {cls.NAME} variant this version does not read (input "
+                          f"{header.get('input')!r})")
     try:  # the one limit, before anything is allocated
-        return check_architecture(arch.get("channels"), arch.get("layers"),
-                                  where="the header's architecture")
+        return cls.from_header(arch, where="the header's architecture")
     except ParameterError as exc:
         raise _fail(path, str(exc)) from None
 
@@ -217,13 +220,13 @@ def load_model(path: str | os.PathLike[str]) -> LearnedModel:
     if bad is not None:
         raise _fail(path, f"the weights {bad} are not finite numbers (NaN or inf): the model "
                           "would match garbage")
-    net = PatchNet(arch)
+    net = arch.network()
     try:
         net.load_state_dict(state, strict=True)
     except RuntimeError as exc:
         first = str(exc).strip().splitlines()
         detail = " ".join(" ".join(first[1:3]).split())[:200] if len(first) > 1 else first[0][:200]
-        raise _fail(path, f"weights do not fit the header's {ARCHITECTURE} with "
-                          f"{arch.channels} channels and {arch.layers} layers ({detail})") from None
+        raise _fail(path, f"weights do not fit the header's {arch.NAME} network of "
+                          f"{arch.describe()} ({detail})") from None
     net.eval()
     return LearnedModel(net=net, header=dict(header), path=path)

@@ -11,7 +11,9 @@ the whole image, as MC-CNN does), so a gain and a bias between the views cancel 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 import torch
@@ -19,22 +21,21 @@ from torch import nn
 from torch.nn import functional as F
 
 from matcher._validation import rgb_to_grey
+from matcher.learned.registry import MAX_WEIGHTS, Arch, Option
 
 __all__ = ["ARCHITECTURE", "MAX_CHANNELS", "MAX_LAYERS", "MAX_WEIGHTS", "Architecture",
            "PatchNet", "check_architecture", "standardise"]
 
-#: Name of the architecture in model files.
+#: Name of the architecture in model files (:mod:`matcher.learned.registry`).
 ARCHITECTURE = "mccnn-fast"
-#: The one limit of architectures, for ``stereoforge train`` and :func:`load_model` alike: feature
-#: maps per layer, layers, and weights in all (float32: 128 MiB). Checked before a network is
-#: built, so a model header cannot size an allocation.
+#: The limits of its options: feature maps per layer and layers (and :data:`MAX_WEIGHTS`, every
+#: network's). Checked before a network is built, so a model header cannot size an allocation.
 MAX_CHANNELS = 1024
 MAX_LAYERS = 32
-MAX_WEIGHTS = 1 << 25
 
 
 @dataclass(frozen=True)
-class Architecture:
+class Architecture(Arch):
     """The shape of a :class:`PatchNet` (what a model file's header records).
 
     Attributes
@@ -42,16 +43,25 @@ class Architecture:
     channels : int
         Feature maps per layer (MC-CNN-fast: 64; ours 32 by default, see docs/learning.md).
     layers : int
-        3 x 3 convolutions; the patch side is ``2 * layers + 1``.
+        3 x 3 convolutions; the patch side is ``2 * layers + 1``, the halo ``layers``.
     """
+
+    NAME: ClassVar[str] = ARCHITECTURE
+    OPTIONS: ClassVar[tuple[Option, ...]] = (
+        Option("channels", 32, 1, MAX_CHANNELS, "feature maps per layer"),
+        Option("layers", 4, 1, MAX_LAYERS, "3x3 convolutions (patch side 2*layers+1)"),
+    )
 
     channels: int = 32
     layers: int = 4
 
     @property
-    def patch(self) -> int:
-        """Side of the window one feature describes."""
-        return 2 * self.layers + 1
+    def halo(self) -> int:
+        return self.layers
+
+    @property
+    def features(self) -> int:
+        return self.channels
 
     @property
     def weights(self) -> int:
@@ -59,14 +69,30 @@ class Architecture:
         c = self.channels
         return 10 * c + (self.layers - 1) * (9 * c * c + c)
 
+    def describe(self) -> str:
+        return f"{self.channels} maps x {self.layers} layers ({self.patch}x{self.patch} patches)"
+
     def to_dict(self) -> dict:
         return {"name": ARCHITECTURE, **asdict(self), "kernel": 3, "patch": self.patch}
+
+    def network(self) -> PatchNet:
+        return PatchNet(self)
+
+    @classmethod
+    def from_header(cls, record: Mapping[str, Any], *, where: str) -> Architecture:
+        from stereoforge.errors import ParameterError
+
+        if record.get("kernel", 3) != 3:
+            raise ParameterError(f"{where}: a {ARCHITECTURE} variant this version does not read "
+                                 f"(kernel {record.get('kernel')!r})")
+        return super().from_header(record, where=where)  # type: ignore[return-value]
 
 
 def check_architecture(channels: object, layers: object, *, where: str = "architecture"
                        ) -> Architecture:
-    """The :class:`Architecture` of ``channels`` and ``layers`` within the one limit
-    (:data:`MAX_CHANNELS`, :data:`MAX_LAYERS`, :data:`MAX_WEIGHTS`); nothing is allocated.
+    """The :class:`Architecture` of ``channels`` and ``layers`` within its limits
+    (:data:`MAX_CHANNELS`, :data:`MAX_LAYERS`, :data:`MAX_WEIGHTS`); nothing is allocated
+    (:meth:`Architecture.from_options`).
 
     Raises
     ------
@@ -82,18 +108,8 @@ def check_architecture(channels: object, layers: object, *, where: str = "archit
     ...
     stereoforge.errors.ParameterError: architecture: 1024 channels x 5 layers has 37,763,072 weights; at most 33,554,432 (use fewer channels or layers)
     """
-    from stereoforge.errors import ParameterError
-
-    for name, value, top in (("channels", channels, MAX_CHANNELS), ("layers", layers, MAX_LAYERS)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-                or not 1 <= value <= top:
-            raise ParameterError(f"{where}: {name}: expected an integer 1..{top}, got {value!r}")
-    arch = Architecture(channels=int(channels), layers=int(layers))
-    if arch.weights > MAX_WEIGHTS:
-        raise ParameterError(f"{where}: {arch.channels} channels x {arch.layers} layers has "
-                             f"{arch.weights:,} weights; at most {MAX_WEIGHTS:,} (use fewer "
-                             "channels or layers)")
-    return arch
+    return Architecture.from_options({"channels": channels, "layers": layers},
+                                     where=where)  # type: ignore[return-value]
 
 
 class PatchNet(nn.Module):

@@ -8,6 +8,7 @@ import click
 
 from synth.cli.options import (LazyChoice, address_option, backend_option, engine_option, fail,
                                out_dir_option)
+from synth.formats import DEFAULT_FORMAT
 
 __all__ = ["bench"]
 
@@ -100,7 +101,7 @@ def bench_paper_cmd(out) -> None:
               help="Comma-separated worker counts; efficiency is relative to the first.")
 @click.option("--size", "size_text", default=None, metavar="WxH",
               help="Render at this size instead of each config's (e.g. 960x540, FlyingThings3D's).")
-@click.option("--format", "formats_text", default="middlebury", show_default=True,
+@click.option("--format", "formats_text", default=DEFAULT_FORMAT, show_default=True,
               help="Comma-separated layouts to write, each measured in the same run (e.g. "
                    "middlebury,sceneflow,crestereo,fsd).")
 @click.option("--image-deflate", "deflates_text", default=None, metavar="NAMES",
@@ -238,8 +239,11 @@ def bench_validate_cmd(out, matcher, suite, against, workers_text, repeats, back
               help="Score every learned model with this box side (1: none). Default: each "
                    "chooses its box on pairs it did not train on (the real-scene models on a "
                    "validation scene).")
+@click.option("--real", "real", multiple=True, metavar="SPEC",
+              help="A real set every model is scored on too, by the field's metric (repeatable; "
+                   "validate --real's SPECs: eth3d:DIR, drivingstereo:DIR, kitti:DIR, ...).")
 def bench_transfer_cmd(out, configs, count, minutes, steps, seeds_text, data, workers, device,
-                       no_ceiling, aggregate) -> None:
+                       no_ceiling, aggregate, real) -> None:
     """Train the reference network on each config, score it on real scenes beside CT and SGBM."""
     import os
 
@@ -262,12 +266,15 @@ def bench_transfer_cmd(out, configs, count, minutes, steps, seeds_text, data, wo
                             seeds=[int(s) for s in seeds],
                             data=folder if (folder / "third").is_dir() else None, out=Path(out),
                             workers=workers, device=device, ceiling=not no_ceiling,
-                            aggregate=aggregate, log=lambda m: click.echo(m, err=True))
+                            aggregate=aggregate, real=real,
+                            log=lambda m: click.echo(m, err=True))
     click.echo(f"post-processing: {result.post_processing}")
     click.echo(write_table(result.summary, Path(out), "transfer"))
     if result.gap:
         click.echo(write_table(result.gap, Path(out), "transfer-gap"))
     write_table(result.rows, Path(out), "transfer-scenes")
+    if result.real_rows:
+        write_table(result.real_rows, Path(out), "transfer-real")
     write_table(result.models, Path(out), "transfer-models")
     from matcher.learned import resolve_device
 

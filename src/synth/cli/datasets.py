@@ -8,6 +8,7 @@ import click
 
 from synth.cli.options import (LazyChoice, address_option, backend_option, engine_option, note,
                                out_dir_option, workers_option)
+from synth.formats import DEFAULT_FORMAT
 
 __all__ = ["dataset"]
 
@@ -27,7 +28,7 @@ __all__ = ["dataset"]
 @workers_option
 @engine_option
 @address_option
-@click.option("--format", "fmt", default="middlebury", show_default=True,
+@click.option("--format", "fmt", default=DEFAULT_FORMAT, show_default=True,
               type=LazyChoice("synth.formats:DATASET_FORMATS"),
               help="Sample folders (middlebury: MiddEval3, middlebury2014: the 2014 scene "
                    "archives, kitti; the training layouts sceneflow: FlyingThings3D's tree, "
@@ -154,6 +155,8 @@ def dataset(config, out, count, indices, workers, engine, address, fmt, size_tex
     else:
         click.echo(f"{run.count} samples in {run.out}: {_rendered(run)}, {run.skipped} already "
                    f"there, {run.seconds:.1f} s")
+    for line in run.notes:
+        note(line)
     for index, problems in run.damaged:
         more = f" (and {len(problems) - 2} more)" if len(problems) > 2 else ""
         click.echo(f"  {index:06d} rendered again: {'; '.join(problems[:2])}{more}")

@@ -14,6 +14,8 @@ from typing import Any
 
 import click
 
+from synth.formats import DEFAULT_FORMAT
+
 __all__ = [
     "note",
     "LazyChoice",
@@ -70,7 +72,7 @@ def backend_option(f: Callable[..., Any]) -> Callable[..., Any]:
 
 def format_option(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--format`` (every layout :func:`synth.write_pair` writes)."""
-    return click.option("--format", "fmt", default="middlebury", show_default=True,
+    return click.option("--format", "fmt", default=DEFAULT_FORMAT, show_default=True,
                         type=LazyChoice("synth.formats:FORMATS"))(f)
 
 

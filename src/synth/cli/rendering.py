@@ -71,9 +71,9 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         fail(ValueError("missing SCENE (a preset name or a scene file), or --from-manifest DIR INDEX"))
     kinds = ()
     if ground_truth is not None:  # checked before any work
-        from synth.write.ground_truth import check_ground_truth
+        from synth.write.extra_ground_truth import check_extra_kinds
 
-        kinds = check_ground_truth(ground_truth, where="--ground-truth")
+        kinds = check_extra_kinds(ground_truth, where="--ground-truth")
         if kinds:
             from synth.formats import get_layout
 
@@ -97,7 +97,7 @@ def render(scene, out, width, height, fx, baseline, seed, fmt, backend, overwrit
         lighting = dataclasses.replace(spec, light=light, lamps=lamps)
     extra = None
     if kinds:
-        from synth.write.ground_truth import render_ground_truth
+        from synth.write.extra_ground_truth import render_ground_truth
         from synth.render import Renderer
 
         with Renderer(rig.width, rig.height, backend=backend) as renderer:

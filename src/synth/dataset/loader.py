@@ -86,7 +86,7 @@ class StereoDataset:
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
     - when on disk: ``disp_right`` ((H, W) float32: Middlebury ``disp1GT.pfm`` or
-      ``disp1.pfm``, SceneFlow's right PFM, CREStereo's ``_right.disp.png``), and the optional ground truth of :mod:`synth.write.ground_truth`: ``depth``
+      ``disp1.pfm``, SceneFlow's right PFM, CREStereo's ``_right.disp.png``), and the optional ground truth of :mod:`synth.write.extra_ground_truth`: ``depth``
       ((H, W) float32 metres), ``normals`` ((H, W, 3) float32), ``instance`` ((H, W) uint16),
       ``semantic`` ((H, W) uint8), ``occlusion_right`` ((H, W) bool, the right view's pixels
       hidden in the left).

@@ -61,7 +61,7 @@ from synth.dataset.config.sampling import sample_seed
 from synth.dataset.storage.shards import ShardWriter, check_disp_encoding, check_shard_option
 from synth.dataset.storage.fs import FsPath, dataset_path, is_local, remove_tree, write_bytes
 from synth.write.export import staged_output_dir
-from synth.formats import DATASET_FORMATS, get_layout
+from synth.formats import DATASET_FORMATS, DEFAULT_FORMAT, get_layout
 from synth._util.progress import progress as progress_bar
 from synth.appearance.texture_control import CANNY_SETTINGS
 
@@ -101,6 +101,10 @@ class DatasetRun:
         with what was wrong: one line a file
         (:func:`synth.dataset.storage.integrity.sample_problems`), or one for an emptied folder.
         Samples never rendered before are not in it.
+    notes : tuple of str
+        What a dataset of this count lacks in its layout, to tell the user
+        (:meth:`synth.formats.base.Layout.count_note`: a SceneFlow dataset of fewer than 22
+        samples has an empty TEST split).
     """
 
     out: Path | FsPath
@@ -110,6 +114,7 @@ class DatasetRun:
     seconds: float
     indices: range = range(0)
     damaged: tuple[tuple[int, tuple[str, ...]], ...] = ()
+    notes: tuple[str, ...] = ()
 
 
 def _damage(out: Path | FsPath, fmt: str, index: int) -> tuple[str, ...]:
@@ -198,7 +203,7 @@ def run_dataset(
     workers: int = 1,
     engine: str = "local",
     address: str | None = None,
-    fmt: str = "middlebury",
+    fmt: str = DEFAULT_FORMAT,
     progress: bool = True,
     backend: str = "auto",
     shard_size: int | None = None,
@@ -350,8 +355,10 @@ def run_dataset(
             bar.close()
             if not part:  # a part leaves the manifests to a whole run (synth.dataset.parts)
                 write_scene_list(out, fmt, [r["dir"] for r in _write_manifest(out)])
+    note = layout.count_note(count)
     return DatasetRun(out=out, count=count, rendered=len(todo), skipped=len(indices) - len(todo),
-                      seconds=time.perf_counter() - t0, indices=indices, damaged=damaged)
+                      seconds=time.perf_counter() - t0, indices=indices, damaged=damaged,
+                      notes=() if note is None else (note,))
 
 
 def render_from_manifest(dataset_dir: str | Path, index: int, *, out: str | Path,

@@ -157,8 +157,9 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
                fmt=get_layout(fmt).writes_as,  # webdataset: shards packed from these folders
                preview=config.preview, fsync=False, clean=pair,
                image_deflate=config.image_deflate)
-    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.write.ground_truth)
-        from synth.write.ground_truth import render_ground_truth, write_ground_truth
+    if config.ground_truth:  # optional: rendered by an extra GT pass (synth.write.extra_ground_truth)
+        from synth.formats.extras import write_ground_truth
+        from synth.write.extra_ground_truth import render_ground_truth
 
         write_ground_truth(dest, render_ground_truth(pair, scene, config.ground_truth,
                                                      renderer=renderer), fsync=False)

@@ -28,6 +28,7 @@ this package imports no layout module (the command line reads :data:`FORMATS` wi
 from __future__ import annotations
 
 import importlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,7 +36,8 @@ if TYPE_CHECKING:
     from matcher.io import StereoSample
     from synth.formats.base import Layout, SceneRef
 
-__all__ = ["DEFAULT_FORMAT", "FORMATS", "DATASET_FORMATS", "METRICS", "READ_ONLY", "get_layout",
+__all__ = ["DEFAULT_FORMAT", "FORMATS", "DATASET_FORMATS", "METRICS", "READ_ONLY", "FieldMetric",
+           "get_layout",
            "layouts", "read_sample", "resolve_spec", "spec_forms"]
 
 #: name -> module defining ``LAYOUT``: the layouts stereoforge writes, in the order of
@@ -68,13 +70,32 @@ DATASET_FORMATS = tuple(_WRITTEN)
 FORMATS = tuple(n for n in DATASET_FORMATS if n not in _SHARDED)
 #: The layout a command writes and a pair folder is read as when none is named.
 DEFAULT_FORMAT = "middlebury"
-#: The metric the field reports on each kind of real scene (:attr:`Layout.metric`), and what it
-#: is: the column ``bench transfer`` gives per real set.
-METRICS = {
-    "bad2": "bad-2: % of pixels with ground truth whose error is > 2 px (Middlebury)",
-    "bad1_nonocc": "bad-1 on non-occluded pixels: % with error > 1 px (ETH3D)",
-    "d1": "D1: % of pixels with ground truth whose error is > 3 px and > 5 % (KITTI)",
-}
+
+
+@dataclass(frozen=True)
+class FieldMetric:
+    """A metric the field reports on a kind of real scene: a field of
+    :class:`matcher.metrics.Metrics` (a percentage) over a region."""
+
+    name: str
+    field: str
+    region: str
+    text: str
+
+
+#: The metric the field reports on each kind of real scene (:attr:`Layout.metric`): the column
+#: ``bench transfer --real`` gives per real set.
+METRICS = {m.name: m for m in (
+    FieldMetric("bad2", "bad_2", "all",
+                "bad-2: % of the pixels with ground truth whose error is > 2 px (Middlebury)"),
+    FieldMetric("bad1_nonocc", "bad_1", "nonocc",
+                "bad-1 on the non-occluded pixels: % with error > 1 px (ETH3D)"),
+    FieldMetric("d1", "d1", "all",
+                "D1: % of the pixels with ground truth whose error is > 3 px and > 5 % (KITTI, "
+                "DrivingStereo)"),
+)}
+
+
 def get_layout(name: str) -> Layout:
     """The layout called ``name`` (one of :data:`DATASET_FORMATS` or :data:`READ_ONLY`).
 

@@ -265,6 +265,11 @@ class Layout:
                                  f"the {self.title} layout; use --format middlebury or "
                                  "webdataset, or drop ground_truth")
 
+    def count_note(self, count: int) -> str | None:
+        """What a dataset of ``count`` samples lacks in this layout, in one line for the user
+        (``stereoforge dataset`` prints it); None: nothing."""
+        return None
+
     # ------------------------------------------------------------------ writing
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
                     fsync: bool, image_deflate: str | None = None) -> list[Path]:

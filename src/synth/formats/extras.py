@@ -1,4 +1,4 @@
-"""The files of the optional ground truth beyond disparity (:mod:`synth.write.ground_truth`
+"""The files of the optional ground truth beyond disparity (:mod:`synth.write.extra_ground_truth`
 makes the arrays): their names in a Middlebury scene folder, their encoding, writing and reading.
 
 =================  ===================  ================================================
@@ -21,19 +21,19 @@ import numpy as np
 
 from matcher.io import atomic_write_bytes, encode_png, encode_pfm
 
-__all__ = ["GROUND_TRUTH", "GT_FILES", "ground_truth_bytes", "read_ground_truth",
+__all__ = ["GROUND_TRUTH", "EXTRA_FILES", "ground_truth_bytes", "read_ground_truth",
            "write_ground_truth"]
 
 #: The optional ground-truth kinds, in the order they are written.
 GROUND_TRUTH = ("depth", "normals", "instance", "semantic", "occlusion_right")
 #: File of each kind in a Middlebury scene folder.
-GT_FILES = {"depth": "depth0.pfm", "normals": "normals0.pfm", "instance": "instance0.png",
+EXTRA_FILES = {"depth": "depth0.pfm", "normals": "normals0.pfm", "instance": "instance0.png",
             "semantic": "semantic0.png", "occlusion_right": "mask1nocc.png"}
 
 
 def ground_truth_bytes(arrays: Mapping[str, np.ndarray]) -> dict[str, bytes]:
-    """File name -> bytes of each array (:func:`synth.write.ground_truth.render_ground_truth`)."""
-    return {GT_FILES[k]: (encode_pfm(a) if GT_FILES[k].endswith(".pfm") else encode_png(a))
+    """File name -> bytes of each array (:func:`synth.write.extra_ground_truth.render_ground_truth`)."""
+    return {EXTRA_FILES[k]: (encode_pfm(a) if EXTRA_FILES[k].endswith(".pfm") else encode_png(a))
             for k, a in arrays.items()}
 
 
@@ -72,7 +72,7 @@ def read_ground_truth(folder: str | Path) -> dict[str, np.ndarray]:
     dtypes = {"instance": np.uint16, "semantic": np.uint8, "occlusion_right": np.uint8}
     out: dict[str, np.ndarray] = {}
     for kind in GROUND_TRUTH:
-        path = Path(folder) / GT_FILES[kind]
+        path = Path(folder) / EXTRA_FILES[kind]
         if path.is_file():
             out[kind] = (read_pfm(path).astype(np.float32, copy=False) if path.suffix == ".pfm"
                          else png(path).astype(dtypes[kind], copy=False))

@@ -92,6 +92,18 @@ class SceneFlowLayout(Layout):
     sample_parent = "samples"
     placed = (_ROOT,)
 
+    def count_note(self, count: int) -> str | None:
+        """A dataset of fewer samples than the first TEST index + 1 has an empty TEST split:
+        RAFT-Stereo and IGEV-Stereo would validate on nothing, unimatch divide by zero."""
+        first = BLOCK - TEST_PER_BLOCK  # sample 21: the first of TEST
+        if count > first:
+            return None
+        return (f"note: --format sceneflow puts samples {first}-{BLOCK - 1} of every {BLOCK} in "
+                f"TEST (FlyingThings3D's 16 %, fixed by the index so that a dataset extended "
+                f"keeps every sample where it was); with {count} sample(s) the TEST split is "
+                f"empty, so a training codebase validates on nothing: render --count "
+                f"{first + 1} or more for a TEST split")
+
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
                     fsync: bool, image_deflate: str | None = None) -> list[Path]:
         files = {}

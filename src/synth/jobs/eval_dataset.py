@@ -24,6 +24,7 @@ import io
 from pathlib import Path
 
 from stereoforge.errors import DatasetError
+from synth.formats import DEFAULT_FORMAT
 
 __all__ = ["COLUMNS", "eval_dataset"]
 
@@ -87,7 +88,7 @@ def eval_dataset(folder: str | Path, *, matcher: str, out: str | Path | None = N
     try:
         root, records = _root(folder)
         # a dataset names its layout; a study's pairs are MiddEval3 folders
-        fmt = dataset_format(root) if (root / "dataset.json").is_file() else "middlebury"
+        fmt = dataset_format(root) if (root / "dataset.json").is_file() else DEFAULT_FORMAT
         if not get_layout(fmt).capacity.sample_folders:
             raise DatasetError(f"{root} is a {fmt} dataset (samples packed in tar shards); "
                                "eval-dataset reads sample folders: write the dataset with "

@@ -2,7 +2,7 @@
 
 - :mod:`synth.write.export` — one pair on disk: its layout's files (:mod:`synth.formats`),
   ``scene.json``, ``preview.png``.
-- :mod:`synth.write.ground_truth` — optional ground truth: depth, normals, instance and semantic
+- :mod:`synth.write.extra_ground_truth` — optional ground truth: depth, normals, instance and semantic
   masks, the right view's mask.
 - :mod:`synth.write.preview` — colour-mapped disparity with a colour bar, the demo contact sheet.
 

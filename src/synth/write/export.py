@@ -24,7 +24,7 @@ from scenes import PRESETS, SceneSpec, get_preset, load_scene, scene_to_dict
 from stereoforge.errors import DatasetError
 from stereoforge.validation import check_input_file
 from synth._util.json_records import json_bytes
-from synth.formats import FORMATS, get_layout
+from synth.formats import DEFAULT_FORMAT, FORMATS, get_layout
 from synth.formats.kitti import KITTI_ROOT, foreground_map, kitti_calib_for
 from synth.formats.middlebury import calib_for
 from synth.pair import StereoPair
@@ -207,7 +207,7 @@ def write_pair(
     *,
     scene: SceneSpec,
     seed: int,
-    fmt: str = "middlebury",
+    fmt: str = DEFAULT_FORMAT,
     index: int = 0,
     preview: bool = True,
     fsync: bool = True,
@@ -289,13 +289,13 @@ def write_pair(
 
 
 def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
-              fmt: str = "middlebury", overwrite: bool = False,
+              fmt: str = DEFAULT_FORMAT, overwrite: bool = False,
               ground_truth: Mapping[str, np.ndarray] | None = None) -> list[Path]:
     """Write ``pair`` as the whole folder ``out`` at once (what ``stereoforge render`` does).
 
     :func:`write_pair` into a :func:`staged_output_dir`: after a failure (disk full, ...)
     ``out`` is as before, never a part of the pair's files. ``ground_truth``: the optional
-    arrays of :func:`synth.write.ground_truth.render_ground_truth`, written beside the Middlebury
+    arrays of :func:`synth.write.extra_ground_truth.render_ground_truth`, written beside the Middlebury
     files.
 
     Returns
@@ -307,7 +307,7 @@ def save_pair(pair: StereoPair, out: str | Path, *, scene: SceneSpec, seed: int,
     with staged_output_dir(out, overwrite=overwrite) as stage:
         written = write_pair(pair, stage, scene=scene, seed=seed, fmt=fmt)
         if ground_truth:
-            from synth.write.ground_truth import write_ground_truth
+            from synth.formats.extras import write_ground_truth
 
             written += write_ground_truth(stage, ground_truth)
     return [out / p.relative_to(stage) for p in written]

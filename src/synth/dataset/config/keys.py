@@ -38,7 +38,7 @@ DISTORTION_KEYS = ("k1", "k2", "p1", "p2", "k3")
 #: The ``[rig]`` keys of the ideal rig (always written by
 #: :meth:`synth.dataset.config.parse.DatasetConfig.to_dict`).
 IDEAL_RIG_KEYS = ("width", "height", "fx", "baseline", "near", "far")
-# synth.write.ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they
+# synth.write.extra_ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they
 # agree)
 GROUND_TRUTH_KINDS = ("depth", "normals", "instance", "semantic", "occlusion_right")
 # matcher.io.png.DEFLATES (not imported: data only here; a test checks they agree)
@@ -59,7 +59,7 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "preview": Key("bool", False, doc="also write preview.png per sample"),
         "ground_truth": Key("str", None, choices=GROUND_TRUTH_KINDS, array=True, distinct=True,
                             doc="optional ground truth to write too "
-                                "(see synth.write.ground_truth)"),
+                                "(see synth.write.extra_ground_truth)"),
         "image_deflate": Key("str", None, choices=IMAGE_DEFLATES,
                              doc="deflate of the images' PNGs (matcher.io.encode_png; unset: "
                                  "ISA-L, zlib without it); stored: no compression, ~1.5x "

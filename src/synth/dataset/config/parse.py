@@ -118,7 +118,7 @@ class DatasetConfig:
     preview : bool
     rig : StereoRig
     ground_truth : tuple of str
-        Optional ground truth written with each sample (``synth.write.ground_truth.GROUND_TRUTH``;
+        Optional ground truth written with each sample (``synth.write.extra_ground_truth.GROUND_TRUTH``;
         empty by default).
     image_deflate : str or None
         The deflate of the images' PNGs (``matcher.io.encode_png``; ``None``: its default).

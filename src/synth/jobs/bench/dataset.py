@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from matcher.io import DEFLATE, check_deflate
 from synth.dataset.config.parse import resized
-from synth.formats import get_layout
+from synth.formats import DEFAULT_FORMAT, get_layout
 
 if TYPE_CHECKING:
     from synth.dataset.config.parse import DatasetConfig
@@ -88,7 +88,7 @@ def bench_dataset(
     size: tuple[int, int] | None = None,
     engine: str = "local",
     address: str | None = None,
-    formats: Sequence[str] = ("middlebury",),
+    formats: Sequence[str] = (DEFAULT_FORMAT,),
     image_deflates: Sequence[str | None] = (None,),
 ) -> list[dict]:
     """Pairs per second of whole dataset runs, per configuration, layout and worker count.
@@ -183,7 +183,7 @@ def bench_dataset(
 
 
 def _bench_run(cfg: DatasetConfig, count: int, w: int, backend: str, engine: str,
-               address: str | None, cold: bool, fmt: str = "middlebury") -> dict:
+               address: str | None, cold: bool, fmt: str = DEFAULT_FORMAT) -> dict:
     """One run of ``count`` samples of ``cfg`` on ``w`` workers: a row of :func:`bench_dataset`
     (``efficiency`` is filled in by the caller)."""
     from synth.dataset.engine.tasks import run_tasks
@@ -298,15 +298,15 @@ def _profile(config: str, count: int, backend: str, size: tuple[int, int] | None
     with Renderer(cfg.rig.width, cfg.rig.height, backend=backend,
                   threads=renderer_threads(1)) as renderer, \
             tempfile.TemporaryDirectory() as tmp:
-        produce_sample(cfg, count, renderer, Path(tmp) / "warm", "middlebury")
+        produce_sample(cfg, count, renderer, Path(tmp) / "warm", DEFAULT_FORMAT)
         freeze_heap()  # as a worker does after its first sample
         (Path(tmp) / "out").mkdir()
         for i in range(count):
             with renderer.pass_timings(passes):
-                produce_sample(cfg, i, renderer, Path(tmp) / f"{i:06d}", "middlebury",
+                produce_sample(cfg, i, renderer, Path(tmp) / f"{i:06d}", DEFAULT_FORMAT,
                                timings=timings)
             t0 = time.perf_counter()
-            commit_returned(Path(tmp) / f"{i:06d}", Path(tmp) / "out", i, "middlebury")
+            commit_returned(Path(tmp) / f"{i:06d}", Path(tmp) / "out", i, DEFAULT_FORMAT)
             commit += time.perf_counter() - t0
             scene = draw_sample(cfg, i).scene
             t0, c0 = time.perf_counter(), time.process_time()

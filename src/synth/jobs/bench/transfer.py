@@ -23,6 +23,13 @@ The ceiling is fair, at matched post-processing, in one of two ways (the table s
 the scenes of the model of our data minus that of the real-scene models of the same seed (each
 on the scene it did not see), and the mean and range over the seeds.
 
+``real`` (``--real SPEC``, repeatable: ``validate --real``'s SPECs, e.g. ``eth3d:DIR``,
+``drivingstereo:DIR``, ``kitti:DIR``) adds real sets that every model and reference is scored on
+(the ceiling's models each on every scene of them), by the metric the field reports for the set
+(:data:`synth.formats.METRICS`: ETH3D bad-1 on non-occluded pixels, Middlebury bad-2, KITTI and
+DrivingStereo D1): one column per set in the summary, rows per scene in
+:attr:`TransferResult.real_rows`.
+
 Real scenes: the six Middlebury 2005/2006 scenes of ``--data`` at third size (search range
 0..83, disparity = ``disp1.png / 3``) and scikit-image's Motorcycle (Middlebury 2014, 0..63),
 read as ``stereoforge validate --real`` reads them (:mod:`synth.validate.real`: ground truth,
@@ -60,14 +67,17 @@ _SCENES = ("Moebius", "Reindeer", "Flowerpots", "Cloth2", "Midd1", "Baby1")
 
 @dataclass(frozen=True)
 class TransferResult:
-    """Per-scene rows, per-method summary rows, the models trained, the gap ours minus
-    real-trained per config and seed (:func:`_gap`) and how the boxes were chosen."""
+    """Per-scene rows, per-method summary rows (with a column per ``--real`` set), the models
+    trained, the gap ours minus real-trained per config and seed (:func:`_gap`), how the boxes
+    were chosen, and the ``--real`` sets' per-scene rows."""
 
     rows: list[dict]
     summary: list[dict]
     models: list[dict]
     gap: list[dict] = field(default_factory=list)
     post_processing: str = ""
+    #: Per-scene rows of the ``--real`` sets: method, trained_on, seed, set, scene, metric, value.
+    real_rows: list[dict] = field(default_factory=list)
 
 
 def _real_specs(data: Path | None) -> list[tuple[str, int]]:
@@ -87,6 +97,52 @@ def _scenes(specs: Sequence[tuple[str, int]]) -> list[dict]:
         out.append({"name": scene.ref.name, "spec": spec, "left": left, "right": right, "gt": gt,
                     "mask": mask, "max_disparity": max_disparity})
     return out
+
+
+def _real_sets(specs: Sequence[str]) -> list[dict]:
+    """The scenes of the ``--real`` SPECs, each with its set (one per SPEC, named by its
+    scheme: ``eth3d``, ``drivingstereo``, ``eth3d-2`` for a second) and the set's field metric
+    (:data:`synth.formats.METRICS`); the search range as ``validate`` takes it."""
+    from synth.formats import METRICS, get_layout
+    from synth.validate.pairs import max_disparity_for
+    from synth.validate.real import resolve_real
+
+    out, names = [], []
+    for spec in specs:
+        scheme = str(spec).partition(":")[0]
+        name = scheme if scheme not in names else f"{scheme}-{names.count(scheme) + 1}"
+        names.append(scheme)
+        for scene in resolve_real([spec]):
+            left, right, gt, mask, _ = scene.load()
+            out.append({"set": name, "name": scene.ref.name, "scene": scene.scene, "left": left,
+                        "right": right, "gt": gt, "mask": mask,
+                        "metric": METRICS[get_layout(scene.ref.layout).metric],
+                        "max_disparity": max_disparity_for(gt, gt.shape[1])})
+    return out
+
+
+def _field_score(estimate: np.ndarray, scene: dict) -> float:
+    """The set's field metric (a percentage) of ``estimate`` on a ``--real`` scene."""
+    from matcher import evaluate
+
+    metric = scene["metric"]
+    m = evaluate(estimate, scene["gt"], delta=3.0, region=metric.region,
+                 occlusion_mask=scene["mask"])
+    return round(float(getattr(m, metric.field)), 3)
+
+
+def _real_columns(summary: list[dict], real_rows: list[dict]) -> None:
+    """Each ``--real`` set's column in the summary: ``<set> <metric>``, the mean over its scenes
+    per seed, then over the seeds."""
+    for row in summary:
+        for name in dict.fromkeys(r["set"] for r in real_rows):
+            mine = [r for r in real_rows if r["method"] == row["method"] and r["set"] == name]
+            per_seed: dict = {}
+            for r in mine:
+                per_seed.setdefault(r["seed"], []).append(r["value"])
+            key = f"{name} {mine[0]['metric'] if mine else ''}".strip()
+            row[key] = (round(float(np.mean([np.mean(v) for v in per_seed.values()])), 2)
+                        if per_seed else "")
 
 
 def _score(estimate: np.ndarray, scene: dict) -> dict:
@@ -257,6 +313,7 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                    minutes: float = 10.0, seeds: Sequence[int] = (0,), data: Path | None = None,
                    out: Path, workers: int = 2, device: str = "auto", ceiling: bool = True,
                    aggregate: int | None = None, steps: int | None = None,
+                   real: Sequence[str] = (),
                    log: Callable[[str], None] | None = None) -> TransferResult:
     """Train on each config (and the real scenes, leave-one-out), score on the real scenes;
     ``aggregate``: None, each model's box chosen on pairs it did not train on, or one box side
@@ -266,20 +323,21 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
     Every argument is checked before anything is rendered or trained (:class:`ParameterError`).
     """
     from matcher.adapters import resolve_matcher
-    from matcher.learned.device import resolve_device
+    from matcher.learned.device import device_name
     from synth.dataset import load_config, run_dataset
 
     say = log or (lambda _m: None)
     if importlib.util.find_spec("torch") is None:  # before hours of rendering, not after
         raise ModuleNotFoundError("No module named 'torch'", name="torch")
-    device = resolve_device(_check_arguments(configs, count=count, minutes=minutes, seeds=seeds,
-                                             workers=workers, device=device, steps=steps),
-                            "--device")
+    device = device_name(_check_arguments(configs, count=count, minutes=minutes, seeds=seeds,
+                                          workers=workers, device=device, steps=steps),
+                         "--device")
     for config in configs:  # a bad config fails before anything is made or trained
         load_config(config)
     specs = _real_specs(data)
     _check_aggregate(aggregate, len(specs), ceiling)
     scenes = _scenes(specs)
+    extra = _real_sets(real)  # a bad SPEC fails here, before anything is rendered
     (out / "models").mkdir(parents=True, exist_ok=True)
     models: list[dict] = []
     names = []
@@ -307,12 +365,23 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                                "held_out": scene["name"], "validated_on": val})
     rows: list[dict] = []
     say("scoring on the real scenes ...")
+    real_rows: list[dict] = []
+
+    def on_real(method: str, trained_on: str, seed: int, estimate: Callable) -> None:
+        for scene in extra:
+            est = estimate(scene)
+            real_rows.append({"method": method, "trained_on": trained_on, "seed": seed,
+                              "set": scene["set"], "scene": scene["scene"],
+                              "metric": scene["metric"].name, "value": _field_score(est, scene)})
+
     for label, spec in REFERENCES:
         m = resolve_matcher(spec)
         for scene in scenes:
             est = m(scene["left"], scene["right"], max_disparity=scene["max_disparity"])
             rows.append({"method": label, "trained_on": "", "seed": 0, "scene": scene["name"],
                          "aggregate": "", **_score(est, scene)})
+        on_real(label, "", 0, lambda sc, m=m: m(sc["left"], sc["right"],
+                                                max_disparity=sc["max_disparity"]))
     from matcher.learned import load_model, match_learned
     from synth.jobs.train import AGGREGATES, aggregate_bad3, open_source
 
@@ -340,6 +409,9 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
                                 max_disparity=scene["max_disparity"], device=device).disparity
             rows.append({"method": label, "trained_on": info["trained_on"], "seed": info["seed"],
                          "scene": scene["name"], "aggregate": agg, **_score(est, scene)})
+        on_real(label, info["trained_on"], info["seed"], lambda sc, model=model, agg=agg: (
+            match_learned(sc["left"], sc["right"], model, aggregate=agg,
+                          max_disparity=sc["max_disparity"], device=device).disparity))
     methods = list(dict.fromkeys(r["method"] for r in rows))
     how = (f"every learned model at {aggregate}x{aggregate}" if aggregate is not None else
            "every learned model's aggregation chosen on pairs it did not train on (ours: their "
@@ -349,7 +421,8 @@ def bench_transfer(*, configs: Sequence[str] = ("flying", "middlebury-like"), co
         row["box_from"] = ("" if not row["trained_on"] else "fixed" if aggregate is not None
                            else "a validation scene" if row["trained_on"] == _REAL
                            else "its validation split")
-    return TransferResult(rows, summary, models, _gap(rows, names, seeds), how)
+    _real_columns(summary, real_rows)
+    return TransferResult(rows, summary, models, _gap(rows, names, seeds), how, real_rows)
 
 
 def draw_transfer(result: TransferResult, path: Path, *, title: str) -> Path:

@@ -50,6 +50,7 @@ from stereoforge.errors import StereoforgeError
 from synth._util.json_records import read_json_object
 from synth._util.progress import progress as progress_bar
 from synth.dataset.engine.tasks import run_tasks
+from synth.formats import DEFAULT_FORMAT
 from synth.jobs.study.config import (
     StudyConfig,
     StudyConfigError,
@@ -120,7 +121,7 @@ def _user_matcher(spec: str) -> Any:
 def _kept(out: Path, index: int) -> Path:
     from synth.dataset.storage.layout import sample_dir
 
-    return sample_dir(out / "pairs", "middlebury", index)
+    return sample_dir(out / "pairs", DEFAULT_FORMAT, index)
 
 
 def _keep_pair(out: Path, index: int, cfg: StudyConfig, record: dict, pair: Any, images: Any,
@@ -135,7 +136,7 @@ def _keep_pair(out: Path, index: int, cfg: StudyConfig, record: dict, pair: Any,
 
     from synth.dataset.storage.layout import sample_dir
 
-    final = sample_dir(out / "pairs", "middlebury", index)
+    final = sample_dir(out / "pairs", DEFAULT_FORMAT, index)
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)

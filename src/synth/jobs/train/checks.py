@@ -13,7 +13,6 @@ import time
 from typing import Any
 
 from matcher.learned.device import check_device
-from matcher.learned.network import check_architecture
 from stereoforge.errors import ParameterError, StereoforgeError
 from stereoforge.validation import check_int, check_real
 from synth.jobs.train.patches import MIN_VISIBLE
@@ -47,7 +46,7 @@ def check_options(cfg: Any, *, device: str, workers: int, threads: int | None,
     if not str(cfg.out).endswith(".pt"):
         raise ParameterError(f"--out: expected a .pt model file, got {cfg.out!r}")
     check_int(cfg.seed, "--seed", lo=0, hi=2**63 - 1)
-    check_architecture(cfg.channels, cfg.layers, where="train")
+    cfg.architecture()  # the network's name and options, within its limits
     check_int(cfg.crops, "--crops", lo=1, hi=MAX_CROPS)
     check_int(cfg.crop, "--crop", lo=4, hi=MAX_CROP)
     check_real(cfg.lr, "lr", lo=0, lo_open=True)
@@ -63,17 +62,21 @@ def check_options(cfg: Any, *, device: str, workers: int, threads: int | None,
 def check_sizes(cfg: Any, sources: list[TrainSource]) -> None:
     """Refuse a crop that, with the network's halo, does not fit the smallest image of a source
     (it would train on nothing, or skip that source's small images without a word)."""
-    need = cfg.crop + 2 * cfg.layers
+    arch = cfg.architecture()
+    halo = arch.halo
+    need = cfg.crop + 2 * halo
     for s in sources:
         if s.smallest is None or min(s.smallest) >= need:
             continue
         h, w = s.smallest
-        fits = min(h, w) - 2 * cfg.layers
+        fits = min(h, w) - 2 * halo
         fix = (f"use --crop {fits} or less" if fits >= 4 else
-               f"use fewer --layers (a {2 * cfg.layers + 1}x{2 * cfg.layers + 1} patch)")
-        raise ParameterError(f"--crop {cfg.crop} with --layers {cfg.layers} needs images of at "
-                             f"least {need}x{need} pixels (the crop and the network's halo of "
-                             f"{cfg.layers}); the smallest of {s.spec} is {h}x{w}: {fix}")
+               f"use a network with a smaller halo (this one sees {arch.patch}x{arch.patch} "
+               "patches: fewer --layers)")
+        raise ParameterError(f"--crop {cfg.crop} with the {arch.NAME} network of "
+                             f"{arch.describe()} needs images of at least {need}x{need} pixels "
+                             f"(the crop and the network's halo of {halo}); the smallest of "
+                             f"{s.spec} is {h}x{w}: {fix}")
 
 
 def check_learned(cfg: Any, *, steps: int, patches: int, start_clock: float) -> None:
@@ -109,8 +112,9 @@ def out_of_memory(exc: BaseException, cfg: Any, device: str) -> TrainOutOfMemory
     if not (isinstance(exc, MemoryError) or "out of memory" in text.lower()
             or "can't allocate memory" in text):
         return None
+    arch = cfg.architecture()
     return TrainOutOfMemory(
-        f"out of memory: could not allocate {_amount(text)} for the network of {cfg.channels} "
-        f"maps x {cfg.layers} layers on a batch of {cfg.crops} crops of {cfg.crop}x{cfg.crop} "
-        f"pixels (device {device}); use fewer --channels or --crops, a smaller --crop, or a "
-        "machine with more memory")
+        f"out of memory: could not allocate {_amount(text)} for the {arch.NAME} network of "
+        f"{arch.describe()} on a batch of {cfg.crops} crops of {cfg.crop}x{cfg.crop} pixels "
+        f"(device {device}); use a smaller network (--arch-option) or fewer --crops, a smaller "
+        "--crop, or a machine with more memory")

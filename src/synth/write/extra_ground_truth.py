@@ -36,12 +36,10 @@ from typing import Any
 import numpy as np
 
 from stereoforge.errors import ParameterError
-from synth.formats.extras import (GROUND_TRUTH, GT_FILES, ground_truth_bytes, read_ground_truth,
-                                  write_ground_truth)
+from synth.formats.extras import GROUND_TRUTH
 
-__all__ = ["GROUND_TRUTH", "GT_FILES", "SEMANTIC_CLASSES", "OTHER_CLASS", "check_ground_truth",
-           "right_occlusion_mask", "semantic_lut", "render_ground_truth", "ground_truth_bytes",
-           "read_ground_truth", "write_ground_truth"]
+__all__ = ["SEMANTIC_CLASSES", "OTHER_CLASS", "check_extra_kinds", "right_occlusion_mask",
+           "semantic_lut", "render_ground_truth"]
 
 #: Semantic class ids: the index of the object's kind (``scenes.ObjectSpec.kind``).
 SEMANTIC_CLASSES = ("background", "plane", "box", "sphere", "cylinder", "moebius", "terrain")
@@ -50,7 +48,7 @@ OTHER_CLASS = 255
 _MAX_INSTANCES = 65535  # 16-bit PNG
 
 
-def check_ground_truth(kinds: Iterable[str] | None, *, where: str = "ground_truth"
+def check_extra_kinds(kinds: Iterable[str] | None, *, where: str = "ground_truth"
                        ) -> tuple[str, ...]:
     """The requested kinds in canonical order; unknown or repeated kinds raise ParameterError."""
     if kinds is None:
@@ -95,7 +93,7 @@ def semantic_lut(scene: Any) -> np.ndarray:
 def render_ground_truth(pair: Any, scene: Any, kinds: Iterable[str], *,
                         renderer: Any) -> dict[str, np.ndarray]:
     """The arrays of the requested kinds for ``pair`` (rendered from ``scene`` by ``renderer``)."""
-    kinds = check_ground_truth(kinds)
+    kinds = check_extra_kinds(kinds)
     out: dict[str, np.ndarray] = {}
     if "depth" in kinds:
         out["depth"] = np.asarray(pair.depth_left, dtype=np.float32)
