@@ -196,3 +196,22 @@ def test_the_format_name_check_finds_a_planted_branch():
     planted = ("if fmt == 'kitti':\n    pass\nx = kind in ('sceneflow', 'a')\n"
                "y = 'kitti' != fmt\nz = fmt == 'other'\nw = {'kitti': 1}\n")
     assert format_name_comparisons(planted, names) == [1, 3, 4]
+
+
+def _module_lines() -> dict[str, int]:
+    return {p.relative_to(SRC).as_posix(): len(p.read_text().splitlines())
+            for p in SRC.rglob("*.py")}
+
+
+def test_no_module_is_over_500_lines_and_the_size_table_is_true():
+    lines = _module_lines()
+    assert {m: n for m, n in lines.items() if n > 500} == {}
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    section = text[text.index("## Modules over 400 lines"):]
+    section = section[:section.index("\n## ", 3)]
+    table = {m: int(n) for m, n in
+             (row.split("|")[1:3] for row in section.splitlines() if row.startswith("| `"))
+             for m, n in [(m.strip().strip("`"), n.strip())]}
+    want = {m: n for m, n in lines.items() if n > 400}
+    assert table == want, ("docs/architecture.md's table of modules over 400 lines: "
+                           f"rows to change {sorted(set(table.items()) ^ set(want.items()))}")
