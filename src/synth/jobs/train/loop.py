@@ -151,8 +151,16 @@ def train(cfg: TrainConfig, *, device: str = "auto", resume: bool = False,
     device = check_options(cfg, device=device, workers=workers, threads=threads,
                            checkpoint_minutes=checkpoint_minutes, row_steps=row_steps)
     model_path, csv_path, ckpt_path = _paths(cfg.out)
+    for parent in (model_path.parent, *model_path.parent.parents):
+        if parent.exists() and not parent.is_dir():  # --out under a file
+            raise DatasetError(f"--out {cfg.out}: {parent} is a file, not a folder; choose "
+                               "another --out")
     if not model_path.parent.is_dir():
         raise FileNotFoundError(f"--out: the folder {model_path.parent} does not exist; create it")
+    for p in (model_path, csv_path, ckpt_path):
+        if p.exists() and not p.is_file():  # a folder (or a pipe) of the output's name
+            raise DatasetError(f"--out {cfg.out}: {p} is not a regular file (a folder?); "
+                               "remove it or choose another --out")
     if not resume and not overwrite:
         for p in (ckpt_path, model_path):
             if p.exists():
@@ -273,19 +281,19 @@ def _row(run: _Run, lr: float, row_steps: int) -> dict:
     return row
 
 
-def _next_batch(loader: Any, step: int) -> Any:
-    """The loader's next batch; its own failure (a worker killed, ...) as one error."""
-    failure = None
+def _next_batch(loader: Any, step: int) -> tuple[Any, BaseException | None]:
+    """The loader's next batch, or what to raise: its own failure (a worker killed, ...) as
+    one error, or a sample's. Returned, not raised, so that the caller raises it where the
+    loader is let go: a traceback holding this frame would keep the loader (and its worker
+    processes) alive."""
     try:
         batch = next(loader)
     except Exception as exc:  # noqa: BLE001 - the loader's own (a worker killed, ...)
-        failure = LoaderFailure(f"the data loader failed at step {step}: "
-                                 f"{' '.join(str(exc).split())[:300]}")
-    if failure is not None:  # raised here, outside the handler: no traceback keeps
-        raise failure        # the loader (and its workers) alive
+        return None, LoaderFailure(f"the data loader failed at step {step}: "
+                                   f"{' '.join(str(exc).split())[:300]}")
     if isinstance(batch, Failed):
-        raise batch.error
-    return batch
+        return None, batch.error
+    return batch, None
 
 
 def _steps(run: _Run, *, checkpoint_minutes: float, show_progress: bool, row_steps: int) -> None:
@@ -328,7 +336,9 @@ def _steps(run: _Run, *, checkpoint_minutes: float, show_progress: bool, row_ste
             for group in opt.param_groups:
                 group["lr"] = lr
             t0 = time.monotonic()
-            batch = _next_batch(loader, state.step)
+            batch, failure = _next_batch(loader, state.step)
+            if failure is not None:  # raised here, outside any handler: no traceback keeps
+                raise failure        # the loader (and its workers) alive past `del loader`
             loss, n = run.step_loss(net, batch, run.dev)
             if loss is not None:
                 opt.zero_grad(set_to_none=True)
