@@ -14,13 +14,28 @@
 # Here (llvmpipe) it runs as well, e.g. `bash tools/gpu_check.sh /tmp/gc 1,2 24`: the same
 # steps on the CPU renderer, to check the script before spending GPU time on it.
 set -u
-out=${1:?usage: tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]}
+usage="usage: tools/gpu_check.sh OUT [WORKERS] [COUNT] [DEFLATES]"
+out=${1:?$usage}
 workers=${2:-4,16}
 count=${3:-160}
 deflates=${4:-isal,stored}
-mkdir -p "$out"
+# every argument checked before the first step: one line and exit 2, as the CLI does
+if ! [[ $workers =~ ^[1-9][0-9]*(,[1-9][0-9]*)*$ ]]; then
+  echo "Error: WORKERS must be worker counts >= 1 separated by commas (e.g. 4,16), got '$workers'; $usage" >&2
+  exit 2
+fi
+if ! [[ $count =~ ^[1-9][0-9]*$ ]]; then
+  echo "Error: COUNT must be an integer >= 1 (pairs per bench run), got '$count'; $usage" >&2
+  exit 2
+fi
+if ! [[ $deflates =~ ^(isal|libdeflate|zlib|stored)(,(isal|libdeflate|zlib|stored))*$ ]]; then
+  echo "Error: DEFLATES must be PNG deflates (isal, libdeflate, zlib, stored) separated by commas, got '$deflates'; $usage" >&2
+  exit 2
+fi
+mkdir -p "$out" || { echo "Error: cannot make the folder OUT '$out'; give a folder you may write" >&2; exit 2; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+failed=()
 
 step() {  # step NAME SECONDS COMMAND...: the command's output into OUT/NAME.txt, its status last
   local name=$1 limit=$2
@@ -30,6 +45,7 @@ step() {  # step NAME SECONDS COMMAND...: the command's output into OUT/NAME.txt
   local rc=$?
   echo "exit status $rc after $((SECONDS - start)) s" >> "$out/$name.txt"
   echo "$name: exit status $rc after $((SECONDS - start)) s"
+  if [ "$rc" -ne 0 ]; then failed+=("$name"); fi
 }
 
 gl_strings() {  # one process per backend: PyOpenGL picks its platform once per process
@@ -60,3 +76,9 @@ most=${workers##*,}
 more=$(( most * 3 / 2 > most ? most * 3 / 2 : most + 1 ))
 step bench_yield 120 env __GL_YIELD=USLEEP stereoforge bench dataset --configs flying \
   --size 960x540 --workers "$most,$more" --count "$count" --backend egl --out "$work/bench_yield"
+# the status says whether every step ran: 0 only then, 1 naming the failed ones (their files
+# say why)
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "gpu_check: ${#failed[@]} step(s) failed: ${failed[*]} (see $out/<step>.txt)" >&2
+  exit 1
+fi

@@ -387,6 +387,31 @@ MUTANTS += (
     ),
 )
 
+# planted in the reading layer of files from elsewhere (matcher.io.files): each must be caught
+# by the damaged-tree property test or the untrusted-data tests
+_READING = ("tests/synth/test_damaged_trees_properties.py", "tests/synth/test_untrusted_data.py")
+
+MUTANTS += (
+    Mutant(
+        "reading: a link out of the tree is followed",
+        "src/matcher/io/files.py",
+        (("    if base is None:\n        return Path(path)",
+          "    if True:\n        return Path(path)"),),
+        "a dataset's symbolic link makes a reader open any file the user can read",
+        _READING,
+    ),
+    Mutant(
+        "reading: a named pipe is opened",
+        "src/matcher/io/files.py",
+        (("    if not stat.S_ISREG(st.st_mode):\n        raise FormatError(f\"{path}: is {_kind(st.st_mode)}, not a regular file; the {what} must \"\n                          \"be a regular file\")\n    return st",
+          "    return st"),
+         ("fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, \"O_CLOEXEC\", 0))",
+          "fd = os.open(path, os.O_RDONLY)")),
+        "a FIFO in a dataset blocks every reader forever",
+        _READING,
+    ),
+)
+
 
 # planted in the learned matcher, training and validate's gate: each went unnoticed by the tests
 # of its module until its pin (the names start with "learned:", "train:" or "validate:")

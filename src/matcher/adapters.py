@@ -176,7 +176,7 @@ class Matcher:
 def _builtin(spec: str, timeout: float) -> Matcher:
     from matcher.match import METHODS
 
-    name, _, window_text = spec.partition(":")
+    name, colon, window_text = spec.partition(":")
     name = name.strip().lower()
     if name not in METHODS:
         raise MatcherError(
@@ -184,6 +184,9 @@ def _builtin(spec: str, timeout: float) -> Matcher:
             "tried py:MODULE:FUNCTION, learned:MODEL.pt and cmd:TEMPLATE: the string starts with "
             "none of 'py:', 'learned:', 'cmd:'")
     window = BUILTIN_WINDOW
+    if colon and not window_text:
+        raise MatcherError(f"matcher {spec!r}: no window after ':'; give one (e.g. {name}:9) or "
+                           f"drop the ':' for the default ({name}:{BUILTIN_WINDOW})")
     if window_text:
         if not window_text.isdigit() or int(window_text) < 3 or int(window_text) % 2 == 0:
             raise MatcherError(f"matcher {spec!r}: the window after ':' must be an odd integer "

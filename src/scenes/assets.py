@@ -14,8 +14,10 @@ read-only.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
@@ -23,8 +25,8 @@ import numpy as np
 
 from stereoforge.errors import SceneError
 
-__all__ = ["AssetError", "IMAGE_SUFFIXES", "MeshData", "load_photo", "load_mesh_file",
-           "list_folder"]
+__all__ = ["AssetError", "IMAGE_SUFFIXES", "MeshData", "check_photo_source", "load_photo",
+           "load_mesh_file", "list_folder"]
 
 #: File suffixes a photograph folder is searched for (case-insensitive).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".ppm", ".pgm")
@@ -67,6 +69,69 @@ def list_folder(folder: str) -> list[str]:
         raise AssetError(f"photograph folder {folder!r} holds no image file "
                          f"({', '.join(IMAGE_SUFFIXES)}); add images or name a file")
     return files
+
+
+def check_photo_source(source: str) -> None:
+    """Refuse, before any rendering, a photograph source that cannot give a texture: an unknown
+    ``skimage:`` name, a missing path, a folder without images, a file (or a folder's file) that
+    is not an image, is damaged (Pillow's ``verify``) or is too large (the decompression-bomb
+    limit). Reads headers and checksums, decodes no pixel.
+
+    Raises
+    ------
+    AssetError
+        One line naming the file and the fix.
+    """
+    if source.startswith(_SKIMAGE):
+        from scenes.spec import SKIMAGE_PHOTOS
+
+        if source[len(_SKIMAGE):] not in SKIMAGE_PHOTOS:
+            raise AssetError(f"unknown scikit-image photograph {source!r}; valid names: "
+                             f"{', '.join(SKIMAGE_PHOTOS)}")
+        return
+    fix = "check the path (relative paths start from the working directory)"
+    if not os.path.exists(source):
+        raise AssetError(f"photograph {source!r} does not exist; {fix}")
+    for path in (list_folder(source) if os.path.isdir(source) else [source]):
+        _check_photo_file(path)
+
+
+@contextlib.contextmanager
+def _pillow(path: str, damaged: str) -> Iterator[None]:
+    """Pillow's failures on the photograph ``path`` as one :class:`AssetError` each (its
+    warning of a huge image too: refused, one line)."""
+    import warnings
+
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            yield
+    except (Image.DecompressionBombWarning, Image.DecompressionBombError) as exc:
+        raise AssetError(f"photograph {path!r} is too large to be a texture ({exc}); give an "
+                         f"image of at most {Image.MAX_IMAGE_PIXELS} pixels") from None
+    except UnidentifiedImageError:
+        raise AssetError(f"photograph {path!r} is not an image Pillow can read; give a PNG, "
+                         "JPEG, TIFF, BMP or WebP file") from None
+    except (OSError, ValueError, SyntaxError) as exc:  # truncated or corrupt image data
+        raise AssetError(f"photograph {path!r} {damaged} ({exc}); re-save the image") from None
+
+
+def _check_photo_file(path: str) -> None:
+
+    from PIL import Image
+
+    if not os.path.isfile(path):
+        raise AssetError(f"photograph {path!r} is not a regular file (a named pipe, a device?); "
+                         "give an image file")
+    with _pillow(path, "is damaged"):
+        with Image.open(path) as img:  # open applies the limit load_photo applies
+            width, height = img.size
+            img.verify()
+    if min(width, height) < 2:
+        raise AssetError(f"photograph {path!r} is {width}x{height}; a texture needs at least "
+                         "2 x 2 pixels")
 
 
 def _stamp(path: str, what: str, fix: str) -> tuple[int, int]:
@@ -115,27 +180,15 @@ def _skimage_photo(name: str) -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def _file_photo(path: str, size: int, mtime_ns: int) -> np.ndarray:
-    import warnings
 
-    from PIL import Image, UnidentifiedImageError
+    from PIL import Image
 
-    try:
-        with warnings.catch_warnings():  # Pillow's warning of a huge image: refused, one line
-            warnings.simplefilter("error", Image.DecompressionBombWarning)
-            with Image.open(path) as img:
-                img.load()
-                if img.mode not in ("L", "RGB", "RGBA"):
-                    img = img.convert("RGB")
-                arr = np.asarray(img)
-    except (Image.DecompressionBombWarning, Image.DecompressionBombError) as exc:
-        raise AssetError(f"photograph {path!r} is too large to be a texture ({exc}); give an "
-                         f"image of at most {Image.MAX_IMAGE_PIXELS} pixels") from None
-    except UnidentifiedImageError:
-        raise AssetError(f"photograph {path!r} is not an image Pillow can read; give a PNG, "
-                         "JPEG, TIFF, BMP or WebP file") from None
-    except (OSError, ValueError, SyntaxError) as exc:  # truncated or corrupt image data
-        raise AssetError(f"photograph {path!r} cannot be decoded ({exc}); re-save the "
-                         "image") from None
+    with _pillow(path, "cannot be decoded"):
+        with Image.open(path) as img:
+            img.load()
+            if img.mode not in ("L", "RGB", "RGBA"):
+                img = img.convert("RGB")
+            arr = np.asarray(img)
     return _readonly(_as_rgb(arr, f"photograph {path!r}"))
 
 

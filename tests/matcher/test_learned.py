@@ -185,7 +185,7 @@ def test_bad_model_files_are_one_line_errors(tmp_path, case):
     text = str(info.value)
     assert "\n" not in text and str(bad) in text and "stereoforge train" in text
     expected = {"architecture": "'raft-stereo'", "weights": "do not fit", "version": "99",
-                "directory": "is a directory", "other_dict": "not a stereoforge-learned-matcher"}
+                "directory": "is a folder, not a regular file", "other_dict": "not a stereoforge-learned-matcher"}
     assert expected.get(case, "not a readable model file") in text
 
 
@@ -505,3 +505,23 @@ def test_the_triton_cost_kernel_on_a_gpu_gives_the_cpu_costs():
     got = cost(fl.cuda(), fr.cuda(), 77, float(COST_SCALE)).cpu()
     assert torch.equal(got, want)
     assert volume._cost_for(torch.device("cuda")) is cost
+
+
+@pytest.mark.parametrize("count", [1, 2, 3])
+def test_cuda_n_is_refused_exactly_past_the_last_gpu(monkeypatch, count):
+    """A faked device count: cuda:0 .. cuda:count-1 are taken, cuda:count is not (the bound
+    off by one in either direction fails this)."""
+    from matcher.learned.device import check_device
+    from stereoforge.errors import ParameterError
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: count)
+    for n in range(count):
+        assert check_device(f"cuda:{n}", "--device") == f"cuda:{n}"
+    assert check_device("cuda", "--device") == "cuda"
+    with pytest.raises(ParameterError, match=rf"torch sees {count} GPU\(s\) \(cuda:0 \.\. "
+                                             rf"cuda:{count - 1}\)"):
+        check_device(f"cuda:{count}", "--device")
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    with pytest.raises(ParameterError, match="torch sees no CUDA GPU here"):
+        check_device("cuda:0", "--device")

@@ -376,3 +376,22 @@ def test_a_sceneflow_dataset_too_small_for_a_test_split_says_so(tmp_path, render
     notes = [x for x in result.stderr.splitlines() if x.startswith("note: --format sceneflow")]
     assert len(notes) == 1 and "render --count 22 or more for a TEST split" in notes[0]
     assert not list((tmp_path / "sf").glob("SceneFlow/FlyingThings3D/*/TEST"))
+
+
+def test_the_sceneflow_reader_takes_the_final_pass_where_the_passes_differ(datasets):
+    """The final pass holds the config's photometric models (noise here), the clean pass not:
+    a tree whose passes differ shows which one a reader takes (a preference for the clean pass
+    fails)."""
+    from matcher.io import read_image
+    from synth.formats import resolve_spec
+
+    out = datasets["sceneflow"]
+    keys = get_layout("sceneflow").discover(out)
+    assert keys and all("/frames_finalpass/" in k for k in keys)
+    refs = resolve_spec(f"sceneflow:{out}")
+    assert len(refs) == 4
+    for ref in refs:
+        final = read_image(out / ref.key)
+        clean = read_image(out / ref.key.replace("frames_finalpass", "frames_cleanpass"))
+        assert not np.array_equal(final, clean)  # the passes differ here
+        np.testing.assert_array_equal(ref.read().left, final)

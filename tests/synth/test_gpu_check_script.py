@@ -50,3 +50,32 @@ def test_gpu_check_runs_every_step_on_this_machine(tmp_path, renderer):
             if line.startswith("| flying | 960x540 | middlebury |")]
     assert rows == ["1", "2"], rows
     assert len(list(out.iterdir())) <= 8  # what a device run brings back
+
+
+@pytest.mark.parametrize("args, words", [
+    (["1,x"], "Error: WORKERS must be worker counts >= 1 separated by commas"),
+    (["0"], "Error: WORKERS must be worker counts"),
+    (["2", "many"], "Error: COUNT must be an integer >= 1"),
+    (["2", "4", "gzip"], "Error: DEFLATES must be PNG deflates"),
+])
+def test_gpu_check_refuses_bad_arguments_before_any_step(tmp_path, args, words):
+    run = subprocess.run(["bash", str(ROOT / "tools" / "gpu_check.sh"), str(tmp_path / "o"),
+                          *args], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2 and run.stdout == "", (run.stdout, run.stderr)
+    assert run.stderr.strip().splitlines() == [run.stderr.strip()] and words in run.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_gpu_check_exits_non_zero_when_a_step_fails(tmp_path):
+    bin_dir = tmp_path / "bin"  # every step's program fails at once
+    bin_dir.mkdir()
+    for name in ("stereoforge", "python3"):
+        (bin_dir / name).write_text("#!/bin/sh\nexit 3\n")
+        (bin_dir / name).chmod(0o755)
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}"}
+    run = subprocess.run(["bash", str(ROOT / "tools" / "gpu_check.sh"), str(tmp_path / "o"),
+                          "1", "2"], cwd=ROOT, env=env, capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 1, run.stderr
+    assert "gpu_check: 6 step(s) failed: gl gl_overheads golden ground_truth bench bench_yield" \
+        in run.stderr

@@ -156,11 +156,11 @@ def check_code_range(codec: CodedDisparity, disp_min: object, disp_max: object) 
 
 
 def read_file_bytes(path: str | os.PathLike[str]) -> bytes:
-    """The bytes of ``path``; :class:`FileNotFoundError` naming it if it is not a file."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
-    return path.read_bytes()
+    """The bytes of ``path`` (:func:`matcher.io.files.read_file`: a regular file, within the
+    size limit); :class:`FileNotFoundError` naming it if there is none."""
+    from matcher.io.files import read_file
+
+    return read_file(Path(path), what="disparity PNG")
 
 
 def _png_header(data: bytes, where: str, layout: str) -> tuple[int, int, int, int]:

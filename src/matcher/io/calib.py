@@ -123,7 +123,10 @@ def read_calib(path: str | os.PathLike[str]) -> dict[str, object]:
     64
     """
     path = Path(path)
-    text = check_text(path.read_bytes(), str(path), encoding="ascii", error=FormatError,
+    from matcher.io.files import read_file
+
+    text = check_text(read_file(path, what="calib.txt", limit=1 << 20), str(path),
+                      encoding="ascii", error=FormatError,
                       fix="a calib.txt is ASCII text")
     return parse_calib(text, where=str(path))
 

@@ -82,7 +82,9 @@ def decode_flo(data: bytes, *, where: str = ".flo data") -> np.ndarray:
 
 def read_flo(path: str | os.PathLike[str]) -> np.ndarray:
     """Read a ``.flo`` file (:func:`decode_flo`)."""
-    return decode_flo(Path(path).read_bytes(), where=str(path))
+    from matcher.io.files import read_file
+
+    return decode_flo(read_file(Path(path), what="flow file"), where=str(path))
 
 
 def write_flo(path: str | os.PathLike[str], flow: np.ndarray, *, fsync: bool = True) -> Path:

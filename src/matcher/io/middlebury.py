@@ -268,7 +268,11 @@ def load_middlebury_2014(scene_dir: str | os.PathLike[str]) -> StereoSample:
     require_dir(scene_dir, "scene_dir")
     left = read_image(scene_dir / "im0.png")
     right = read_image(scene_dir / "im1.png")
-    disp_left = read_disparity(_ground_truth_path(scene_dir, "left") or scene_dir / GT_NAMES["left"][0])
+    gt_path = _ground_truth_path(scene_dir, "left")
+    if gt_path is None:
+        names = " or ".join(GT_NAMES["left"])
+        raise FileNotFoundError(f"{scene_dir}: no left ground truth ({names})")
+    disp_left = read_disparity(gt_path)
     disp1 = _ground_truth_path(scene_dir, "right")
     disp_right = None if disp1 is None else read_disparity(disp1)
     mask_path = scene_dir / "mask0nocc.png"

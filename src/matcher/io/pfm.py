@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from matcher.io.atomic import atomic_write_bytes
+from matcher.io.files import open_file
 from stereoforge.errors import FormatError
 
 __all__ = [
@@ -138,7 +139,7 @@ def read_pfm_header(path: str | os.PathLike[str]) -> PFMHeader:
     3
     """
     path = Path(path)
-    with open(path, "rb") as f:
+    with open_file(path, what="PFM file", limit=None) as f:
         head = f.read(_MAX_HEADER)
         size = os.fstat(f.fileno()).st_size
     header = _parse_header(head, str(path))
@@ -182,7 +183,7 @@ def read_pfm(path: str | os.PathLike[str]) -> np.ndarray:
     array([[ 1., inf]], dtype=float32)
     """
     path = Path(path)
-    with open(path, "rb") as f:
+    with open_file(path, what="PFM file", limit=None) as f:
         head = f.read(_MAX_HEADER)
         size = os.fstat(f.fileno()).st_size
         header = _parse_header(head, str(path))

@@ -56,6 +56,7 @@ import cv2
 import numpy as np
 
 from matcher._validation import check_choice, check_positive
+from matcher.io.files import read_file
 from matcher.io.pfm import read_pfm
 from stereoforge.errors import FormatError, ParameterError
 
@@ -104,10 +105,10 @@ _adler32 = zlib.adler32 if _isal_zlib is None else _isal_zlib.adler32
 
 
 def _imread(path: Path, flags: int) -> np.ndarray:
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
-    # np.fromfile + imdecode handles non-ASCII paths, which cv2.imread does not on every platform.
-    data = np.fromfile(path, dtype=np.uint8)
+    # read + imdecode handles non-ASCII paths, which cv2.imread does not on every platform, and
+    # refuses a FIFO, a device or a huge file before anything is read (matcher.io.files)
+    data = np.frombuffer(read_file(path, what="image"), dtype=np.uint8)
+    _check_structure(data, path)  # what would make libpng or libjpeg speak on stderr
     try:
         image = cv2.imdecode(data, flags) if data.size else None
     except cv2.error as exc:  # e.g. a header announcing more pixels than OpenCV allows (2**30)
@@ -121,6 +122,55 @@ def _imread(path: Path, flags: int) -> np.ndarray:
     if image is None:
         raise FormatError(f"{path}: not an image OpenCV can decode (corrupt or unsupported format)")
     return image
+
+
+#: Bytes a deflate stream can expand to per byte, at most (deflate's own bound is 1032:1).
+_MAX_INFLATE = 1040
+_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}  # PNG colour type -> samples per pixel
+
+
+def _check_structure(data: np.ndarray, path: Path) -> None:
+    """Refuse a PNG or JPEG whose structure is broken before a decoder sees it (their
+    libraries print their own complaint on stderr, beside ours): a PNG whose chunks are cut or
+    fail their CRC, that has no IEND, or whose image data is too short for the size its header
+    announces; a JPEG without its end marker (cut)."""
+    raw = data.tobytes() if data.size < 8 or data[:8].tobytes() == _SIGNATURE else None
+    if raw is None:
+        if data.size >= 2 and data[0] == 0xFF and data[1] == 0xD8:  # a JPEG
+            if data.tobytes().rfind(b"\xff\xd9") < 2:
+                raise FormatError(f"{path}: a JPEG without its end (cut, or damaged); copy the "
+                                  "file again")
+        return
+    if len(raw) < 8:
+        return  # not an image at all: the decoder's one-line refusal below
+    pos, ihdr, idat, end = 8, None, 0, False
+    while pos + 12 <= len(raw):
+        length, kind = struct.unpack(">I4s", raw[pos:pos + 8])
+        stop = pos + 12 + length
+        if stop > len(raw):
+            break
+        if zlib.crc32(raw[pos + 4:stop - 4]) != struct.unpack(">I", raw[stop - 4:stop])[0]:
+            raise FormatError(f"{path}: PNG chunk {kind!r} at byte {pos} fails its CRC "
+                              "(damaged); copy the file again")
+        if kind == b"IHDR" and length >= 13:
+            ihdr = struct.unpack(">IIBB", raw[pos + 8:pos + 18])
+        elif kind == b"IDAT":
+            idat += length
+        elif kind == b"IEND":
+            end = True
+            break
+        pos = stop
+    if not end:
+        raise FormatError(f"{path}: a PNG cut short ({len(raw):,} bytes: its chunks stop at byte "
+                          f"{pos}, before the IEND chunk); copy the file again")
+    if ihdr is None:
+        raise FormatError(f"{path}: a PNG without its IHDR header; copy the file again")
+    width, height, depth, colour = ihdr
+    row = 1 + -(-width * _CHANNELS.get(colour, 4) * max(depth, 1) // 8)
+    if width == 0 or height == 0 or height * row > _MAX_INFLATE * idat + 1024:
+        raise FormatError(f"{path}: the PNG header announces {width}x{height} pixels, which its "
+                          f"{idat:,} bytes of image data cannot hold (damaged or forged); copy "
+                          "the file again")
 
 
 def _png_size(data: np.ndarray) -> tuple[int, int] | None:

@@ -195,13 +195,19 @@ def load_model(path: str | os.PathLike[str]) -> LearnedModel:
         The file is not a stereoforge model, holds another architecture, or its weights do not
         fit its header.
     """
+    from matcher.io.files import read_file
+
     path = Path(path)
-    if path.is_dir():
-        raise _fail(path, "is a directory, not a model file")
-    if not path.is_file():
-        raise FileNotFoundError(f"model file {path} does not exist; {_TRAIN_HINT}")
     try:
-        blob = torch.load(path, map_location="cpu", weights_only=True)
+        data = read_file(path, what="model file")  # a FIFO, a folder, ... named as such
+    except FileNotFoundError:
+        raise FileNotFoundError(f"model file {path} does not exist; {_TRAIN_HINT}") from None
+    except FormatError as exc:
+        raise _fail(path, str(exc).removeprefix(f"{path}: ")) from None
+    try:
+        import io
+
+        blob = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - torch raises many kinds for a bad archive
         text = " ".join(str(exc).split())[:160]
         raise _fail(path, f"not a readable model file ({type(exc).__name__}: {text})") from None

@@ -85,9 +85,11 @@ def loads_json_object(data: bytes | str, *, where: str, what: str,
 def read_json_object(path: str | Path, *, what: str, keys: Mapping[str, type] | None = None,
                      fix: str = "", error: type[StereoforgeError] = DatasetError) -> dict[str, Any]:
     """:func:`loads_json_object` of the file ``path`` (an ``OSError`` if it cannot be read)."""
+    from matcher.io.files import read_file
+
     path = Path(path) if isinstance(path, str) else path  # or an fsspec path (dataset.storage.fs)
-    return loads_json_object(path.read_bytes(), where=str(path), what=what, keys=keys, fix=fix,
-                             error=error)
+    data = read_file(path, what=what, limit=1 << 28) if isinstance(path, Path) else path.read_bytes()
+    return loads_json_object(data, where=str(path), what=what, keys=keys, fix=fix, error=error)
 
 
 def json_bytes(obj: Any) -> bytes:

@@ -14,6 +14,8 @@ exit 1      environment: the GL backend is missing or failed (``BackendError``),
             permission denied, a file where a directory should be), an optional package
             missing (torch, ray, fsspec, webdataset: the message names the extra), out of
             memory; and an unexpected error (a bug: the message says so)
+exit 130    interrupted (Ctrl-C): one line saying what was kept and how to go on (``train``
+            writes its checkpoint first and says so)
 ==========  ==============================================================================
 
 ``stereoforge --debug ...`` (or ``STEREOFORGE_DEBUG=1``) lets the exception through with its
@@ -30,12 +32,17 @@ import click
 
 from stereoforge.errors import BackendError, StereoforgeError
 
-__all__ = ["BoundaryGroup", "describe_error", "USAGE", "ENVIRONMENT"]
+__all__ = ["BoundaryGroup", "describe_error", "USAGE", "ENVIRONMENT", "INTERRUPT"]
 
 #: Exit status of a usage error (bad parameters, bad file contents): click's convention.
 USAGE = 2
 #: Exit status of an environment error (backend, OS, failed sample, bug).
 ENVIRONMENT = 1
+#: Exit status after Ctrl-C (128 + SIGINT), and what the line says: every long command writes
+#: each result whole and resumes from what is there.
+INTERRUPT = 130
+INTERRUPTED = ("interrupted (Ctrl-C); what was complete is kept (every sample, pair and table "
+               "is written whole, never in part): run the same command again to resume")
 
 _DEBUG_KEY = "stereoforge.debug"
 
@@ -133,6 +140,11 @@ class BoundaryGroup(click.Group):
             return super().invoke(ctx)
         except (click.exceptions.ClickException, click.exceptions.Exit, click.Abort):
             raise
+        except KeyboardInterrupt:  # Ctrl-C: one line, exit 130, as `train` documents
+            if debug_requested(ctx):
+                raise
+            click.echo(f"Error: {INTERRUPTED}", err=True)
+            ctx.exit(INTERRUPT)
         except Exception as exc:
             if debug_requested(ctx):
                 raise

@@ -73,6 +73,12 @@ def golden_check_cmd(root, render, backend) -> None:
     """Compare fresh matcher outputs (exactly) and renders (within tolerances) with golden/."""
     from synth.jobs.golden import golden_check
 
+    if not (Path(root) / "manifest.json").is_file():  # missing, empty, or another kind of folder
+        what = ("does not exist" if not Path(root).exists() else "is empty" if not
+                any(Path(root).iterdir()) else "holds no manifest.json (not a golden folder)")
+        raise click.BadParameter(f"{root} {what}; give the golden folder (the project's is "
+                                 "golden/), or make one with `stereoforge golden update --root "
+                                 f"{root}`", param_hint="--root")
     report = golden_check(root, backend=backend, render=render)
     click.echo(report.summary())
     if not report.ok:

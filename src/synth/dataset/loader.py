@@ -82,7 +82,7 @@ class StereoDataset:
     - ``occlusion``: (H, W) bool, pixels of the left view hidden in the right one (they have a
       ground-truth disparity; ``mask0nocc.png`` 128, or valid in ``disp_occ_0`` only; a layout
       without a mask: a left-right check of its ground truths,
-      :func:`synth.formats.base.fill_occlusion`);
+      :func:`synth.formats.reading.fill_occlusion`);
     - ``calib``: dict of float64 ``fx``, ``fy``, ``cx``, ``cy`` (pixels) and ``baseline`` (m);
     - ``index``, ``seed``: int64 scalars of the sample;
     - when on disk: ``disp_right`` ((H, W) float32: Middlebury ``disp1GT.pfm`` or
@@ -96,7 +96,10 @@ class StereoDataset:
     DatasetError
         ``root`` holds no dataset, a dataset of the previous layout (the message names
         ``stereoforge dataset --upgrade DIR``), a format without sample folders, or no sample in
-        the split.
+        the split; and, from ``dataset[i]``, a sample whose files are missing, damaged, not
+        regular files, outside the dataset, or disagree in size or channels (the message names
+        the sample and the file). An index out of range is an ``IndexError``, a non-integer
+        index a ``TypeError``, as for any sequence.
 
     Examples
     --------
@@ -155,7 +158,16 @@ class StereoDataset:
             raise TypeError(f"index: expected an int, got {type(item).__name__}")
         if not -len(self) <= item < len(self):
             raise IndexError(f"index {item} out of range for {len(self)} samples")
-        return self.layout.read(self.root, self.indices[int(item)], extras=extras)
+        index = self.indices[int(item)]
+        try:
+            return self.layout.read(self.root, index, extras=extras)
+        except DatasetError:
+            raise
+        except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:  # damaged files
+            text = " ".join(str(exc).split())
+            raise DatasetError(f"{self.root}: sample {index}: {text}; check the dataset with "
+                               f"`stereoforge dataset --verify {self.root}` and render the "
+                               "sample again") from None
 
     def __getitem__(self, item: int) -> dict[str, Any]:
         s = self.sample(item, extras=True)

@@ -9,6 +9,7 @@ job the engines (:mod:`synth.dataset.engine.tasks`) run on each worker, committi
 from __future__ import annotations
 
 import dataclasses
+import errno
 import os
 import shutil
 import tempfile
@@ -41,6 +42,12 @@ from synth.appearance.photometric import apply_photometric
 from synth.appearance.texture_control import edge_density, match_edge_density
 
 __all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw"]
+
+
+#: OS errors that are the machine's, not a sample's: raised as they are (the command line gives
+#: their fix), not as a failed sample to reproduce.
+_ENVIRONMENT_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES,
+                                 errno.EPERM, errno.EMFILE, errno.ENFILE, errno.EIO})
 
 
 class SampleError(StereoforgeError, RuntimeError):
@@ -213,6 +220,8 @@ class SampleTask:
             return record
         except BaseException as exc:
             shutil.rmtree(tmp, ignore_errors=True)
+            if isinstance(exc, OSError) and exc.errno in _ENVIRONMENT_ERRNOS:
+                raise  # disk full, read-only, no permission: the machine's, not the sample's
             if isinstance(exc, Exception) and not isinstance(exc, SampleError):
                 seed = sample_seed(self.config.seed, index)
                 raise SampleError(index, seed, f"{type(exc).__name__}: {exc}") from exc

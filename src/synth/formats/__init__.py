@@ -162,5 +162,10 @@ def resolve_spec(spec: str) -> list[SceneRef]:
 def read_sample(root: str | Path, key: str = ".", *, format: str = DEFAULT_FORMAT
                 ) -> StereoSample:
     """Sample ``key`` of a tree of ``format`` in ``root`` (``"."``: ``root`` is the sample's
-    folder), as the layout reads it (:meth:`~synth.formats.base.Layout.read_key`)."""
-    return get_layout(format).read_key(Path(root), key)
+    folder), as the layout reads it (:meth:`~synth.formats.base.Layout.read_key`), confined to
+    ``root`` and its arrays checked (:func:`~synth.formats.reading.checked_sample`)."""
+    from matcher.io.files import confined
+    from synth.formats.reading import checked_sample, damage_as_format_error
+
+    with confined(root), damage_as_format_error(f"{root}/{key}"):
+        return checked_sample(get_layout(format).read_key(Path(root), key), f"{root}/{key}")

@@ -27,7 +27,6 @@ The folder a pair is written into (``dest``) stands for the sample folder: a fil
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,10 +36,11 @@ import numpy as np
 
 from matcher.io import StereoSample, write_all_atomic
 from stereoforge.errors import DatasetError, ParameterError
+from synth.formats.reading import (calib_from_rig, checked_sample,
+                                   damage_as_format_error, fill_occlusion, rig_record)
 
-__all__ = ["JPEG_QUALITY", "Capacity", "Layout", "SceneRef", "calib_from_middlebury",
-           "calib_from_rig", "fill_occlusion",
-           "ndisp_for", "spec_error", "swap_folder", "write_tree"]
+__all__ = ["JPEG_QUALITY", "Capacity", "Layout", "SceneRef", "ndisp_for", "spec_error",
+           "swap_folder", "write_tree"]
 
 #: Quality of the JPEG images of the layouts that store JPEG (no chroma subsampling).
 JPEG_QUALITY = 95
@@ -114,48 +114,18 @@ class SceneRef:
     note: str | None = None
 
     def read(self) -> StereoSample:
-        """The sample, as its layout reads it (:meth:`Layout.read_ref`)."""
+        """The sample, as its layout reads it (:meth:`Layout.read_ref`), confined to its root
+        (:func:`matcher.io.files.confined`) and its arrays checked (:func:`checked_sample`)."""
+        from matcher.io.files import confined
         from synth.formats import get_layout
 
-        return get_layout(self.layout).read_ref(self)
+        with confined(self.root), damage_as_format_error(self.scene):
+            return checked_sample(get_layout(self.layout).read_ref(self), self.scene)
 
 
 def spec_error(spec: str, why: str) -> ParameterError:
     """The error of a SPEC that names no sample: ``'SPEC': why``."""
     return ParameterError(f"{spec!r}: {why}")
-
-
-def calib_from_rig(rig: dict[str, Any]) -> dict[str, float]:
-    """``fx, fy, cx, cy`` (pixels) and ``baseline`` (metres) of a ``scene.json`` rig record."""
-    return {k: float(rig[k]) for k in ("fx", "fy", "cx", "cy", "baseline")}
-
-
-def calib_from_middlebury(calib: dict | None) -> dict[str, float] | None:
-    """``fx, fy, cx, cy`` (pixels) and ``baseline`` (metres) of a parsed Middlebury
-    ``calib.txt`` (:func:`matcher.io.read_calib`: ``cam0``, ``baseline`` in mm), or None."""
-    if not calib or "cam0" not in calib or "baseline" not in calib:
-        return None
-    cam0 = np.asarray(calib["cam0"], dtype=np.float64)
-    return {"fx": float(cam0[0, 0]), "fy": float(cam0[1, 1]), "cx": float(cam0[0, 2]),
-            "cy": float(cam0[1, 2]), "baseline": float(calib["baseline"]) / 1000.0}
-
-
-def fill_occlusion(sample: StereoSample) -> tuple[np.ndarray, str]:
-    """The occlusion mask of a sample (255 visible in both views, 128 occluded, 0 no ground
-    truth) and how it was made: its own mask, else a left-right check of its ground truths
-    (:func:`matcher.regions.occlusion_from_disparities`; the left one warped to the right view
-    when there is no right one)."""
-    from matcher.regions import occlusion_from_disparities
-
-    gt = sample.disp_left
-    if sample.mask_left is not None:
-        return (np.where(np.isfinite(gt), sample.mask_left, 0).astype(np.uint8),
-                "the scene's own occlusion mask")
-    if sample.disp_right is not None:
-        return (occlusion_from_disparities(gt, sample.disp_right),
-                "left-right check of the left and right ground truths")
-    return (occlusion_from_disparities(gt),
-            "left-right check: the left ground truth warped to the right view")
 
 
 class Layout:
@@ -352,16 +322,23 @@ class Layout:
         one and, with ``extras`` where the layout holds it, the optional ground truth
         (:func:`synth.formats.extras.read_ground_truth`)."""
         from matcher.io import read_calib
+        from matcher.io.files import confined
+        from synth._util.json_records import read_json_object
         from synth.formats.extras import read_ground_truth
 
-        sample = self.read_key(Path(root), self.key(index))
-        mask, how = fill_occlusion(sample)
         folder = self.sample_dir(Path(root), index)
-        rig = json.loads((folder / "scene.json").read_text())["rig"]
-        more = read_ground_truth(folder) if extras and self.capacity.extra_ground_truth else {}
-        meta = {**sample.meta, "occlusion": how}
-        if (folder / "calib.txt").is_file():  # the search range the sample was written with
-            meta["ndisp"] = int(read_calib(folder / "calib.txt")["ndisp"])
+        with confined(root):
+            sample = checked_sample(self.read_key(Path(root), self.key(index)),
+                                    f"{root}: sample {int(index)}")
+            scene = read_json_object(folder / "scene.json", what="scene record",
+                                     keys={"rig": dict}, fix="render the sample again")
+            rig = rig_record(scene["rig"], folder / "scene.json")
+            more = read_ground_truth(folder) if extras and self.capacity.extra_ground_truth else {}
+            meta = {**sample.meta}
+            if (folder / "calib.txt").is_file():  # the search range the sample was written with
+                meta["ndisp"] = int(read_calib(folder / "calib.txt")["ndisp"])
+        mask, how = fill_occlusion(sample)
+        meta["occlusion"] = how
         return StereoSample(sample.left, sample.right, sample.disp_left, sample.disp_right,
                             f"{int(index):06d}", meta, mask,
                             calib=calib_from_rig(rig), flow_left=sample.flow_left,

@@ -68,8 +68,11 @@ class CREStereoLayout(Layout):
         left, right = (read_image(root / f"{key}{s}") for s in _SUFFIXES[:2])
         disp_left, disp_right = (read_crestereo_disparity(root / f"{key}{s}")
                                  for s in _SUFFIXES[2:])
+        files = dict(zip(("left view", "right view", "left disparity", "right disparity"),
+                         (root / f"{key}{s}" for s in _SUFFIXES)))
         return StereoSample(left, right, disp_left, disp_right, Path(key).name,
-                            {"dataset": "crestereo", "layout": self.name, "path": key})
+                            {"dataset": "crestereo", "layout": self.name, "path": key,
+                             "files": files})
 
     def recognises(self, root: Path) -> bool:
         """``*_left.jpg`` with ``*_left.disp.png`` beside it, up to two levels below ``root``."""

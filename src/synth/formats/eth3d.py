@@ -18,7 +18,8 @@ from pathlib import Path
 
 from matcher.io import StereoSample, read_calib, read_disparity, read_image
 from matcher.io.sample import check_sample_shapes
-from synth.formats.base import Capacity, Layout, SceneRef, calib_from_middlebury
+from synth.formats.base import Capacity, Layout, SceneRef
+from synth.formats.reading import calib_from_middlebury
 
 __all__ = ["ETH3DLayout", "LAYOUT"]
 

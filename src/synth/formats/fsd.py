@@ -68,9 +68,10 @@ class FSDLayout(Layout):
         root = Path(root)
         disp = swap_folder(key, "rgb", "disparity").removesuffix(".jpg") + ".png"
         right = swap_folder(key, "left", "right")
+        files = {"left view": root / key, "right view": root / right, "left disparity": root / disp}
         return StereoSample(read_image(root / key), read_image(root / right),
                             read_fsd_disparity(root / disp), None, Path(key).stem,
-                            {"dataset": "fsd", "layout": self.name, "path": key})
+                            {"dataset": "fsd", "layout": self.name, "path": key, "files": files})
 
     def recognises(self, root: Path) -> bool:
         """A left image of the layout (``*/dataset/data/left/rgb/*.jpg``, or one scene's)."""

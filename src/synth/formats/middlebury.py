@@ -20,7 +20,8 @@ from typing import Any
 
 from matcher.io import (StereoSample, atomic_write_bytes, encode_flo, format_calib,
                         load_middlebury_2014, read_flo, read_image, write_middlebury)
-from synth.formats.base import Capacity, Layout, SceneRef, calib_from_middlebury, spec_error
+from synth.formats.base import Capacity, Layout, SceneRef, spec_error
+from synth.formats.reading import calib_from_middlebury
 
 __all__ = ["MiddleburyLayout", "LAYOUT", "SCENE_LAYOUTS", "calib_for", "calib_txt"]
 

@@ -151,9 +151,11 @@ class SceneFlowLayout(Layout):
         left_image, right_image = read_image(root / key), read_image(root / right)
         disp_left = read_pfm(root / disp)
         d1 = read_pfm(root / disp_right) if (root / disp_right).is_file() else None
+        files = {"left view": root / key, "right view": root / right,
+                 "left disparity": root / disp, "right disparity": root / disp_right}
         return StereoSample(left_image, right_image, disp_left, d1, Path(key).stem,
                             {"dataset": "sceneflow", "layout": self.name, "pass": pass_,
-                             "path": key})
+                             "path": key, "files": files})
 
     def recognises(self, root: Path) -> bool:
         """A FlyingThings3D tree: ``frames_*pass/`` and ``disparity/`` under ``root``,

@@ -59,7 +59,9 @@ def _load(root: Path, fmt: str, rec: dict) -> tuple:
     try:
         s = get_layout(fmt).read(root, index)
     except FileNotFoundError as exc:
-        raise DatasetError(f"{root}: sample {index}: {exc.filename} is missing; eval-dataset "
+        missing = (f"{exc.filename} is missing" if exc.filename is not None
+                   else " ".join(str(exc).split()))
+        raise DatasetError(f"{root}: sample {index}: {missing}; eval-dataset "
                            f"reads the {fmt} layout's files (see stereoforge dataset "
                            "--format)") from None
     default = s.meta["ndisp"] if "ndisp" in s.meta else ndisp_for(s.disp_left)

@@ -106,7 +106,7 @@ class RealSpec:
         """``left, right, gt, occlusion, how``: RGB uint8 images, float32 ground truth (inf =
         unknown), the occlusion mask (255/128/0) and how it was made."""
         from matcher.io import StereoSample
-        from synth.formats.base import fill_occlusion
+        from synth.formats.reading import fill_occlusion
 
         sample = self.ref.read()
         left, right = (np.repeat(v[..., None], 3, axis=2) if v.ndim == 2 else v

@@ -272,10 +272,18 @@ class _Parser:
                             fix="add object_image = {choice = ['skimage:brick', ...]}")
         from scenes.spec import SKIMAGE_PHOTOS
 
+        from scenes.assets import check_photo_source
+
         for value in scene["object_image"].args if "object_image" in scene else ():
             if value.startswith("skimage:") and value[8:] not in SKIMAGE_PHOTOS:
                 raise self.fail("scene", "object_image", f"skimage:<name> with a name in "
                                 f"{list(SKIMAGE_PHOTOS)}", repr(value))
+            try:  # a folder without images, a damaged or huge file: refused now, not at sample 0
+                check_photo_source(value)
+            except StereoforgeError as exc:
+                raise self.fail("scene", "object_image", "a photograph (skimage:<name>, an "
+                                "image file or a folder of them)", repr(value),
+                                fix=str(exc)) from None
 
     def parse(self, data: Mapping[str, Any]) -> DatasetConfig:
         if not isinstance(data, Mapping):

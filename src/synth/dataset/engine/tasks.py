@@ -56,13 +56,15 @@ from concurrent.futures import (
     ThreadPoolExecutor,
     wait,
 )
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
+from stereoforge.errors import StereoforgeError
 from synth.dataset.engine.ray_driver import RAY_CONNECT_TIMEOUT_S, check_ray_address
 
-__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "check_engine", "check_ray_address",
-           "configure_worker", "die_with_parent", "renderer_threads", "run_tasks",
-           "ray_available", "start_worker_server"]
+__all__ = ["ENGINES", "RAY_CONNECT_TIMEOUT_S", "Task", "WorkerLost", "check_engine",
+           "check_ray_address", "configure_worker", "die_with_parent", "renderer_threads",
+           "run_tasks", "ray_available", "start_worker_server"]
 
 ENGINES = ("local", "ray")
 
@@ -300,6 +302,10 @@ def _run_in_worker(index: int, backend: str) -> tuple[int, dict]:
     return index, result
 
 
+class WorkerLost(StereoforgeError, RuntimeError):
+    """A worker process of the local pool died (killed); an environment error."""
+
+
 def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tuple[int, dict]]:
     if workers == 1:
         from synth.render.renderer import Renderer
@@ -324,7 +330,15 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in sorted(done, key=lambda f: f.exception() is not None):
-                yield fut.result()  # raises the task's exception
+                try:
+                    result = fut.result()  # raises the task's exception
+                except BrokenProcessPool:
+                    raise WorkerLost(
+                        "a worker process died without a word (killed: out of memory and the "
+                        "OOM killer, or a signal); the samples finished are kept: free some "
+                        "memory or use fewer workers, and run the same command again to "
+                        "resume") from None
+                yield result
     finally:
         probe.shutdown(wait=True, cancel_futures=True)
         pool.shutdown(wait=True, cancel_futures=True)

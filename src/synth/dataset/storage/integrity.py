@@ -19,8 +19,11 @@ from __future__ import annotations
 
 import json
 import re
+import stat
 from collections.abc import Iterable
-from pathlib import Path
+from pathlib import Path, PurePosixPath
+
+from matcher.io.files import OutsideRootError, check_inside, read_file
 
 from stereoforge.errors import DatasetError
 from synth._util.json_records import json_bytes
@@ -76,7 +79,8 @@ def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:
     """The files a sample's record lists, or ``None`` and why there is no usable record."""
     path = record_path(root, index)
     try:
-        record = json.loads(path.read_bytes())
+        record = json.loads(read_file(path, what="completion record", limit=1 << 24)
+                            if isinstance(path, Path) else path.read_bytes())
         files = record["files"]
         if record["index"] != index or not isinstance(files, dict) or not all(
                 isinstance(e, dict) and isinstance(e.get("bytes"), int)
@@ -88,6 +92,24 @@ def _listed(root: Path, index: int) -> tuple[dict | None, str | None]:
     except (OSError, ValueError, KeyError, TypeError) as exc:
         return None, f"{path}: unreadable completion record ({type(exc).__name__}: {exc})"
     return files, None
+
+
+def _entry(root: Path, name: str) -> tuple[Path, str | None]:
+    """The file a record names, and why it may not be read: an absolute path, a ``..``, or (in
+    a local folder) a symbolic link that leaves the dataset; None when it is inside."""
+    parts = PurePosixPath(name).parts
+    if not name or PurePosixPath(name).is_absolute() or "\\" in name or ".." in parts:
+        return root, ("{record} lists {name!r}, a path outside the dataset: the record was "
+                      "edited; render the sample again (delete its folder and rerun)")
+    path = root / name
+    if isinstance(root, Path) and (path.is_symlink() or any(p.is_symlink() for p in
+                                                             path.parents if root in p.parents)):
+        try:
+            check_inside(path, root)
+        except OutsideRootError:
+            return root, ("{name}: a link to a file outside the dataset, not the file its "
+                          "record lists; render the sample again (delete its folder and rerun)")
+    return path, None
 
 
 def sample_problems(root: Path, fmt: str, index: int, *, checksums: bool = False) -> list[str]:
@@ -103,11 +125,19 @@ def sample_problems(root: Path, fmt: str, index: int, *, checksums: bool = False
         return [why]
     problems = []
     for name, entry in files.items():
-        path = root / name
+        path, outside = _entry(root, name)
+        if outside is not None:
+            problems.append(outside.format(record=f"{RECORDS}/{index:06d}.json", name=name))
+            continue
         try:
-            size = path.stat().st_size
+            st = path.stat()
         except OSError:
             problems.append(f"{name}: missing (listed in {RECORDS}/{index:06d}.json)")
+            continue
+        size = st.st_size
+        if isinstance(path, Path) and not stat.S_ISREG(st.st_mode):
+            problems.append(f"{name}: not a regular file (a named pipe, device or folder in "
+                            "its place); render the sample again")
             continue
         if size != entry["bytes"]:
             problems.append(f"{name}: {size} bytes, its record says {entry['bytes']} bytes "

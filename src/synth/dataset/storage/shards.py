@@ -148,8 +148,12 @@ def read_index(root: str | Path) -> list[dict]:
 
 
 def sha256(path: Path | FsPath) -> str:
-    """Hex SHA-256 of a file (in a folder or on an fsspec filesystem)."""
-    with path.open("rb") as f:
+    """Hex SHA-256 of a file (in a folder or on an fsspec filesystem); a local one must be a
+    regular file (:func:`matcher.io.files.open_file`: a FIFO or ``/dev/zero`` is refused, not
+    read forever)."""
+    from matcher.io.files import open_file
+
+    with (open_file(path, limit=None) if isinstance(path, Path) else path.open("rb")) as f:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
 

@@ -294,12 +294,14 @@ _REAL = "real scenes, leave-one-out"
 
 
 def _check_aggregate(aggregate: int | None, n_scenes: int, ceiling: bool) -> None:
+    from matcher.learned.model import MAX_AGGREGATE
     from stereoforge.errors import ParameterError
 
     if aggregate is not None and (isinstance(aggregate, bool) or not isinstance(aggregate, int)
-                                  or aggregate < 1 or (aggregate > 1 and aggregate % 2 == 0)):
-        raise ParameterError(f"--aggregate: expected 1 (none) or an odd box side >= 3, got "
-                             f"{aggregate!r}")
+                                  or aggregate < 1 or aggregate > MAX_AGGREGATE
+                                  or (aggregate > 1 and aggregate % 2 == 0)):
+        raise ParameterError(f"--aggregate: expected 1 (none) or an odd box side 3..{MAX_AGGREGATE}"
+                             f", got {aggregate!r}")
     need = 3 if aggregate is None else 2
     if ceiling and n_scenes < need:
         how = ("a held-out scene, a validation scene and one to train on"

@@ -57,10 +57,19 @@ def load_checkpoint(path: Path, cfg: TrainConfig, sources: list[TrainSource]) ->
     DatasetError
         None there, not a checkpoint, made with other options or on other data.
     """
-    if not path.is_file():
+    import io
+
+    from matcher.io.files import read_file
+
+    if not path.exists():
         raise DatasetError(f"--resume: no checkpoint {path}; start without --resume")
     try:
-        blob = torch.load(path, map_location="cpu", weights_only=True)
+        data = read_file(path, what="checkpoint")
+    except (OSError, ValueError) as exc:
+        raise DatasetError(f"--resume: {' '.join(str(exc).split())}; remove it and start again "
+                           "without --resume") from None
+    try:
+        blob = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - any unreadable archive
         raise DatasetError(f"{path}: not a readable checkpoint ({type(exc).__name__}); remove "
                            "it and start again without --resume") from None

@@ -127,12 +127,12 @@ class TrainSource:
 
 
 def _dataset(spec: str, root: Path, val_fraction: float) -> TrainSource:
-    import json
-
     from synth.dataset.loader import StereoDataset
 
+    from synth._util.json_records import read_json_object
+
     everything = StereoDataset(root)  # checks the layout, the format, that samples exist
-    header = json.loads((root / "dataset.json").read_text())
+    header = read_json_object(root / "dataset.json", what="dataset header")
     splits: dict = {}
     for split in ("train", "val"):
         try:
