@@ -316,14 +316,21 @@ def test_bench_transfer_refuses_an_aggregate_beyond_the_limit_at_once(tmp_path):
 
 
 # --------------------------------------------------------------------------- 7. signals
+def _terminal_sigint():
+    """Ctrl-C as a terminal delivers it: a job started in the background of a script (``cmd &``,
+    ``nohup``) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_during_dataset_is_exit_130_with_one_line(tmp_path, renderer):
     proc = subprocess.Popen(CLI + ["dataset", "planes", "--count", "5000", "--size", "320x240",
                                    "--out", str(tmp_path / "d"), "--workers", "2"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=_terminal_sigint)
     deadline = time.monotonic() + 120
     while not list((tmp_path / "d" / "records").glob("*.json")) and time.monotonic() < deadline:
         time.sleep(0.2)
+    assert proc.poll() is None, "the dataset ended before a sample was recorded"
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     lines = [x for x in err.splitlines() if x.startswith("Error:")]
