@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import ctypes
 import gc
+import itertools
 import multiprocessing
 import os
 import signal
@@ -260,7 +261,10 @@ def renderer_threads(threads: int | None) -> int | None:
 def _init_worker(task: Task, threads: int | None, main_pid: int) -> None:
     """Worker set-up that needs no GL: lifetime, thread counts, malloc; the renderer opens on
     first use. The worker dies with its parent (the fork server, or the main process under
-    ``spawn``), and at once if the main process ``main_pid`` already ended."""
+    ``spawn``), and at once if the main process ``main_pid`` already ended. Ctrl-C reaches
+    the whole foreground process group; a worker ignores it and the main process decides (it
+    cancels what is queued, lets each worker end its sample, and exits 130)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     die_with_parent(also=main_pid)
     configure_worker(threads)
     _WORKER["task"], _WORKER["threads"] = task, threads
@@ -320,15 +324,25 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
                                initializer=_init_worker,
                                initargs=(task, _threads_per_worker(workers), os.getpid()))
     probe = ThreadPoolExecutor(max_workers=1)
+    ctrl_c = _DeferredInterrupt()
     try:
         # the probe (a subprocess; OpenGL stays unimported here) runs while the workers start
-        backend_future = probe.submit(resolve_backend, task.backend)
-        for _ in range(workers):
-            pool.submit(_ready)
+        with ctrl_c:
+            backend_future = probe.submit(resolve_backend, task.backend)
+            for _ in range(workers):
+                pool.submit(_ready)
         backend = backend_future.result()
-        pending = {pool.submit(_run_in_worker, i, backend) for i in indices}
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+        queue = iter(indices)
+        pending: set = set()
+        while True:
+            with ctrl_c:  # the futures' locks are never left held by a KeyboardInterrupt
+                for index in itertools.islice(queue, _AHEAD_PER_WORKER * workers - len(pending)):
+                    pending.add(pool.submit(_run_in_worker, index, backend))
+                if not pending:
+                    break
+                done, pending = wait(pending, timeout=_POLL_SECONDS,
+                                     return_when=FIRST_COMPLETED)
+            ctrl_c.raise_if_pressed()
             for fut in sorted(done, key=lambda f: f.exception() is not None):
                 try:
                     result = fut.result()  # raises the task's exception
@@ -340,8 +354,52 @@ def _run_local(task: Task, indices: Sequence[int], workers: int) -> Iterator[tup
                         "resume") from None
                 yield result
     finally:
-        probe.shutdown(wait=True, cancel_futures=True)
-        pool.shutdown(wait=True, cancel_futures=True)
+        with ctrl_c:  # a second Ctrl-C while the workers end their current sample waits too
+            probe.shutdown(wait=True, cancel_futures=True)
+            pool.shutdown(wait=True, cancel_futures=True)
+        ctrl_c.raise_if_pressed()
+
+
+#: Samples queued per worker beyond the one it renders: enough that no worker waits for the
+#: next index, few enough that each wait() (it locks every pending future) stays cheap.
+_AHEAD_PER_WORKER = 2
+#: How often a wait() with nothing finished returns to look for a Ctrl-C.
+_POLL_SECONDS = 0.25
+
+
+class _DeferredInterrupt:
+    """Within ``with``, Ctrl-C (SIGINT) is recorded instead of raised; :meth:`raise_if_pressed`
+    raises the ``KeyboardInterrupt`` afterwards, at a point where no lock is held.
+
+    A ``KeyboardInterrupt`` raised inside :func:`concurrent.futures.wait` while it takes the
+    futures' locks one by one leaves some of them held; the pool's manager thread then blocks
+    on one for ever, and so does the ``shutdown`` that follows (Ctrl-C hung the run). Only in
+    the main thread, and only where SIGINT raises (Python's default handler); elsewhere a no-op.
+    """
+
+    def __init__(self) -> None:
+        self.pressed = False
+        self._saved: Any = None
+
+    def _record(self, _signum: int, _frame: Any) -> None:
+        self.pressed = True
+
+    def __enter__(self) -> _DeferredInterrupt:
+        self._saved = None
+        if (threading.current_thread() is threading.main_thread()
+                and signal.getsignal(signal.SIGINT) is signal.default_int_handler):
+            self._saved = signal.signal(signal.SIGINT, self._record)
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        if self._saved is not None:
+            signal.signal(signal.SIGINT, self._saved)
+            self._saved = None
+
+    def raise_if_pressed(self) -> None:
+        if self.pressed:
+            self.pressed = False
+            raise KeyboardInterrupt
 
 
 # --------------------------------------------------------------------------- ray engine
