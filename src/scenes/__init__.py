@@ -7,7 +7,7 @@ Pure numpy + trimesh (no OpenGL). A scene is data (:class:`SceneSpec`) in the le
 from scenes.materials import LAMP_KINDS, LampSpec, MaterialSpec
 from scenes.presets import PRESETS, Preset, get_preset, list_presets
 from scenes.primitives import build_mesh, build_meshes, plane_equation
-from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
+from scenes.spec import FAMILY_KINDS, LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
 from scenes.serialize import (
     dump_scene,
     dumps_json,
@@ -29,6 +29,7 @@ __all__ = [
     "MaterialSpec",
     "LampSpec",
     "LAMP_KINDS",
+    "FAMILY_KINDS",
     "load_scene",
     "dump_scene",
     "loads_json",

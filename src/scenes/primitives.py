@@ -37,11 +37,14 @@ import numpy as np
 import trimesh
 from PIL import Image
 
+from scenes._meshkit import cross as _cross
+from scenes._meshkit import grid_faces as _grid_faces
 from scenes.assets import load_mesh_file
+from scenes.families import FAMILY_BUILDERS, OPEN_FAMILIES, deform, subdivide
 from scenes.spec import ObjectSpec, SceneSpec
 from scenes.textures import band_limited_noise, texture_image
 
-__all__ = ["build_mesh", "build_meshes", "plane_equation", "OPEN_KINDS"]
+__all__ = ["build_mesh", "build_meshes", "plane_equation", "OPEN_KINDS", "FAMILY_MAX_SEGMENTS"]
 
 #: Kinds whose meshes are open surfaces (render them double-sided).
 OPEN_KINDS: frozenset[str] = frozenset({"plane", "moebius", "terrain"})
@@ -52,29 +55,6 @@ _Local = tuple[np.ndarray, np.ndarray, np.ndarray, tuple[float, float]]
 
 
 # --------------------------------------------------------------------------- helpers
-def _grid_faces(rows: int, cols: int) -> np.ndarray:
-    """Faces of a (rows + 1) x (cols + 1) vertex grid, index ``r * (cols + 1) + c``.
-
-    Triangles ``(a, d, c)`` and ``(a, c, b)`` per cell with ``a = (r, c)``, ``b = (r, c + 1)``,
-    ``c = (r + 1, c + 1)``, ``d = (r + 1, c)``: counter-clockwise seen from the side where
-    ``d_row x d_col`` points.
-    """
-    r, c = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
-    a = (r * (cols + 1) + c).ravel()
-    b = a + 1
-    d = a + cols + 1
-    cc = d + 1
-    return np.concatenate([np.stack([a, d, cc], 1), np.stack([a, cc, b], 1)]).astype(np.int64)
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross(a, b)`` of (..., 3) float64 arrays: numpy's expressions, the same bits,
-    without its axis handling (2-3x faster on the small arrays of these meshes)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
-
-
 def _gutter(obj: ObjectSpec, largest: float) -> float:
     """Space between atlas charts: half a texture period, at most 5 % of the largest chart."""
     return min(0.5 / obj.texture.frequency, 0.05 * largest)
@@ -286,12 +266,42 @@ def build_mesh(obj: ObjectSpec) -> trimesh.Trimesh:
     if not isinstance(obj, ObjectSpec):
         raise TypeError(f"obj must be an ObjectSpec, got {type(obj).__name__}")
     transform = obj.pose.matrix()
-    metadata = {"name": obj.name, "kind": obj.kind, "double_sided": obj.kind in OPEN_KINDS}
+    metadata = {"name": obj.name, "kind": obj.kind,
+                "double_sided": obj.kind in OPEN_KINDS or obj.kind in OPEN_FAMILIES}
     if obj.kind == "mesh":
         return _file_mesh(obj, transform, metadata)
-    verts, faces, coords, extent = _BUILDERS[obj.kind](obj)
+    if obj.kind in FAMILY_BUILDERS:
+        segments = min(obj.segments, FAMILY_MAX_SEGMENTS)
+        verts, faces, coords, extent = FAMILY_BUILDERS[obj.kind](obj.size, segments, obj.seed)
+    else:
+        verts, faces, coords, extent = _BUILDERS[obj.kind](obj)
+    verts, faces, coords = _deformed(obj, verts, faces, coords)
     world = verts @ transform[:3, :3].T + transform[:3, 3]
     return _textured(obj, world, faces, coords, extent, _vertex_normals(world, faces), metadata)
+
+
+#: The families' tessellation stops here (a knot of 4096 segments would be ~38M triangles).
+FAMILY_MAX_SEGMENTS = 256
+
+#: A deformed object's triangles are split until every edge is below this fraction of its size
+#: (so a bent box bends instead of shearing its two triangles per face).
+_DEFORM_EDGE = 1.0 / 12
+
+
+def _deformed(obj: ObjectSpec, verts: np.ndarray, faces: np.ndarray, coords: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The local mesh twisted, bent and tapered by ``obj.deform`` (unchanged when it is none)."""
+    if not any(obj.deform):
+        return verts, faces, coords
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    # about the origin: t = y / (height / 2) stays in [-1, 1] for shapes not centred on it
+    height = 2 * max(abs(float(lo[1])), abs(float(hi[1])))
+    if not height > 0:  # flat in y: nothing to deform along it
+        return verts, faces, coords
+    verts, faces, coords = subdivide(verts, faces, coords,
+                                     max_edge=float(np.max(hi - lo)) * _DEFORM_EDGE)
+    twist, bend, taper = obj.deform
+    return deform(verts, extent=height, twist=twist, bend=bend, taper=taper), faces, coords
 
 
 def _file_mesh(obj: ObjectSpec, transform: np.ndarray, metadata: dict) -> trimesh.Trimesh:
@@ -302,6 +312,13 @@ def _file_mesh(obj: ObjectSpec, transform: np.ndarray, metadata: dict) -> trimes
     world = local @ transform[:3, :3].T + transform[:3, 3]
     normals = _vertex_normals(world, data.faces)
     metadata["double_sided"] = not data.closed
+    if any(obj.deform):  # generated UVs on the deformed, finer triangles
+        corners, faces, coords, extent = _triplanar(local, data.faces)
+        corners, faces, coords = _deformed(obj, corners, faces, coords)
+        world = corners @ transform[:3, :3].T + transform[:3, 3]
+        metadata["texture_source"] = "generated"
+        return _textured(obj, world, faces, coords, extent, _vertex_normals(world, faces),
+                         metadata)
     if obj.own_texture and data.image is not None:
         metadata["texture_source"] = "own"
         material = _material(Image.fromarray(np.asarray(data.image), mode="RGB"), obj)

@@ -25,6 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from scenes.families import (
+    FAMILY_SIZES,
+    KNOT_TUBE_RATIO,
+    WIRE_THICKNESS_RATIO,
+    family_size_problem,
+)
 from scenes.materials import MAX_LAMPS, LampSpec, MaterialSpec
 from stereoforge.validation import (
     check_choice,
@@ -40,6 +46,8 @@ __all__ = [
     "SKIMAGE_PHOTOS",
     "MAX_EXTENT",
     "OBJECT_KINDS",
+    "FAMILY_KINDS",
+    "DEFORM_LIMITS",
     "TextureSpec",
     "Pose",
     "ObjectSpec",
@@ -62,7 +70,20 @@ OBJECT_KINDS: dict[str, tuple[str, ...]] = {
     "fence": ("width", "height", "spacing", "thickness"),
     "grid": ("width", "height", "spacing", "thickness"),
     "mesh": ("scale",),
+    # procedural families (:mod:`scenes.families`): the shape within the size is the seed's
+    **FAMILY_SIZES,
 }
+
+#: The procedural families of :data:`OBJECT_KINDS`: their shape is drawn from ``seed``.
+FAMILY_KINDS: tuple[str, ...] = tuple(FAMILY_SIZES)
+#: What the size of a family must satisfy beyond positive values
+#: (:func:`scenes.families.family_size_problem` checks it).
+_FAMILY_CONDITIONS = {"torus": "tube < radius", "knot": f"tube <= {KNOT_TUBE_RATIO} * radius",
+                      "wire": f"thickness <= {WIRE_THICKNESS_RATIO} * length"}
+
+#: Bounds of :attr:`ObjectSpec.deform` ``(twist, bend, taper)``: angles in radians, taper a
+#: fraction (the radius at the ends is ``1 -+ taper`` times the middle's).
+DEFORM_LIMITS: tuple[float, float, float] = (2 * math.pi, math.pi, 0.9)
 
 #: Object kinds whose ``size`` may hold zero (terrain's amplitude) -- by label.
 _ZERO_SIZES = frozenset({"amplitude"})
@@ -249,6 +270,15 @@ class ObjectSpec:
     - ``"mesh"`` ``(scale,)``: the triangle mesh in the file ``path`` (OBJ, PLY, STL, GLB, ...
       through trimesh), its coordinates times ``scale``, then ``pose`` (see
       :mod:`scenes.primitives` for its texture).
+    - The procedural families (:data:`FAMILY_KINDS`, built by :mod:`scenes.families`; their
+      shape within the size is drawn from ``seed``): ``"superquadric"`` ``(sx, sy, sz)``,
+      ``"rock"`` ``(radius,)``, ``"torus"`` ``(radius, tube)`` (``tube < radius``), ``"knot"``
+      ``(radius, tube)`` (``tube <= 0.15 radius``), ``"revolution"`` ``(radius, height)``
+      (vases, bottles, bowls, shades, goblets), ``"extrusion"`` ``(radius, depth)``,
+      ``"polyhedron"`` ``(radius,)``, ``"tree"`` and ``"bush"`` ``(width, height)``, ``"wire"``
+      ``(length, thickness)`` (``thickness <= 0.25 length``), ``"furniture"`` ``(sx, sy, sz)``
+      (tables, chairs, shelves, stools, lamps standing on local ``+y``). Their tessellation
+      follows ``segments`` up to 256.
 
     Parameters
     ----------
@@ -277,6 +307,12 @@ class ObjectSpec:
     own_texture : bool
         Kind ``"mesh"`` only: use the file's own texture (its UVs and image) when it has one,
         instead of ``texture`` on generated UVs. False by default.
+    deform : (3,) tuple of float
+        ``(twist, bend, taper)`` of the local shape about its ``y`` axis before ``pose`` (see
+        :func:`scenes.families.deform`): twist and bend are total angles in radians over the
+        object's height (at most :data:`DEFORM_LIMITS` ``2 pi`` and ``pi``), taper a fraction
+        in ``[-0.9, 0.9]``. Any kind but plane and terrain; ``(0, 0, 0)`` (the default) is none,
+        and is left out of a scene file.
 
     Examples
     --------
@@ -294,6 +330,7 @@ class ObjectSpec:
     material: MaterialSpec = field(default_factory=MaterialSpec)
     path: str = field(default="", metadata=_OMIT_DEFAULT)
     own_texture: bool = field(default=False, metadata=_OMIT_DEFAULT)
+    deform: tuple[float, float, float] = field(default=(0.0, 0.0, 0.0), metadata=_OMIT_DEFAULT)
 
     def __post_init__(self) -> None:
         check_type(self.material, "ObjectSpec.material", MaterialSpec)
@@ -324,7 +361,18 @@ class ObjectSpec:
         if kind in ("fence", "grid") and not size[3] < size[2]:
             raise fail(f"ObjectSpec.size of a {kind} {labels}", "thickness < spacing",
                        repr(size), fix="thinner bars or a wider spacing: the bars would merge")
+        if kind in FAMILY_SIZES and family_size_problem(kind, size) is not None:
+            raise fail(f"ObjectSpec.size of a {kind} {labels}", _FAMILY_CONDITIONS[kind],
+                       repr(size), fix="a thinner tube or cable: a thicker one meets itself")
         _set(self, "size", size)
+        deform = _vec(self.deform, "ObjectSpec.deform (twist, bend, taper)", 3)
+        for value, limit, label in zip(deform, DEFORM_LIMITS, ("twist", "bend", "taper")):
+            check_real(value, f"ObjectSpec.deform {label}", lo=-limit, hi=limit,
+                       fix="twist within 2 pi, bend within pi radians, taper within 0.9")
+        if any(deform) and kind in ("plane", "terrain"):
+            raise fail("ObjectSpec.deform", "(0, 0, 0) for a plane or terrain", repr(deform),
+                       fix="drop deform: a deformed plane is no longer a plane")
+        _set(self, "deform", deform)
         _set(self, "segments", check_int(self.segments, "ObjectSpec.segments", lo=3,
                                          hi=_MAX_SEGMENTS))
         _set(self, "seed", _seed(self.seed, "ObjectSpec.seed"))

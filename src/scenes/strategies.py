@@ -81,6 +81,11 @@ def sizes(draw: st.DrawFn, kind: str) -> tuple[float, ...]:
         out[3] = out[2] * draw(st.floats(min_value=1e-3, max_value=0.99))
         if not 0 < out[3] < out[2]:
             out[3] = out[2] / 2
+    bound = {"torus": 0.99, "knot": 0.15, "wire": 0.25}.get(kind)
+    if bound is not None:  # tube < radius, tube <= 0.15 radius, thickness <= 0.25 length
+        out[1] = out[0] * draw(st.floats(min_value=1e-3, max_value=bound))
+        if not 0 < out[1] <= bound * out[0]:
+            out[1] = out[0] * bound / 2
     return tuple(out)
 
 

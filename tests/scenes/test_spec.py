@@ -121,7 +121,9 @@ def _obj_dict(**changes) -> dict:
      r"unknown key 'colour' in scene\.light"),
     ({"name": "s", "objects": [_obj_dict(kind="cube")]},
      r"objects\[0\]: ObjectSpec\.kind: expected one of \['plane', 'box', 'sphere', 'cylinder', "
-     r"'moebius', 'terrain', 'fence', 'grid', 'mesh'\], "
+     r"'moebius', 'terrain', 'fence', 'grid', 'mesh', 'superquadric', 'rock', 'torus', "
+     r"'knot', 'revolution', 'extrusion', 'polyhedron', 'tree', 'bush', 'wire', "
+     r"'furniture'\], "
      r"got 'cube'"),
     ({"name": "s", "objects": [_obj_dict(texture={"kind": "perlin"})]},
      r"objects\[0\]\.texture.*\['noise', 'checker', 'stripes', 'constant', 'image'\], got 'perlin'"),
