@@ -16,6 +16,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from scenes.layouts import backdrop, room
 from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
 
 __all__ = ["Preset", "PRESETS", "get_preset", "list_presets", "frame_cover_size"]
@@ -193,6 +194,10 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in [
            "in front of a wall at 10 m", _flying),
     Preset("terrain", "a noise heightfield 1.5 m below the camera from 1.5 to 31.5 m, seen at "
            "a grazing angle, wall at 36 m", _terrain),
+    Preset("room", "a furnished room around the rig (4-9 m wide, 5-11 m deep): floor, walls, "
+           "ceiling, 4-9 pieces of furniture and clutter on them and on the floor", room),
+    Preset("backdrop", "one noise wall at 60 m, for configs that put their objects in front",
+           backdrop),
 ]})
 
 

@@ -28,8 +28,10 @@ GOLDEN = Path(__file__).with_name("golden_samples.json")
 # config -> the pinned sample: planes 0 (noise, gain, bias), texture-sweep 0 (boxes, 3 occluders,
 # the edge-density search), flying 4 (every photometric model: blur, gamma, gain, bias, noise, JPEG),
 # imperfect-rig 0 (distortion, rotation, offsets: the real cameras and flow0.flo),
-# middlebury-like 0 (photograph textures, fences and grids, textureless walls)
-CONFIGS = {"planes": 0, "texture-sweep": 0, "flying": 4, "imperfect-rig": 0, "middlebury-like": 0}
+# middlebury-like 0 (photograph textures, fences and grids, textureless walls), floating 0 (the
+# room, every object family, deformations), dense 0 (up to 200 objects of every family)
+CONFIGS = {"planes": 0, "texture-sweep": 0, "flying": 4, "imperfect-rig": 0, "middlebury-like": 0,
+           "floating": 0, "dense": 0}
 
 
 def _digest(path: Path) -> str:

@@ -11,6 +11,7 @@ from typing import Mapping
 
 from scenes import PRESETS
 from scenes.materials import MAX_LAMPS, SPECULAR_MODELS
+from scenes.spec import FAMILY_KINDS
 from stereoforge.schema import Key
 from synth.camera.lens import F_SCALE_RANGE, MAX_ROTATION_DEG
 
@@ -43,12 +44,13 @@ IDEAL_RIG_KEYS = ("width", "height", "fx", "baseline", "near", "far")
 GROUND_TRUTH_KINDS = ("depth", "normals", "instance", "semantic", "occlusion_right")
 # matcher.io.png.DEFLATES (not imported: data only here; a test checks they agree)
 IMAGE_DEFLATES = ("isal", "libdeflate", "zlib", "stored")
-OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh")
+OCCLUDER_KINDS = ("box", "sphere", "cylinder", "fence", "grid", "mesh", *FAMILY_KINDS)
 OBJECT_TEXTURES = ("noise", "checker", "stripes", "constant", "image")
 #: ``[scene]`` keys drawn once per object or occluder (``synth.dataset.config.sampling``), not per
 #: sample.
-PER_OBJECT_KEYS = ("occluder_mesh", "object_texture", "object_image", "object_frequency_px", "object_contrast",
-                   "object_mean", "object_angle")
+PER_OBJECT_KEYS = ("occluder_mesh", "occluder_deform", "object_texture",
+                   "object_image", "object_frequency_px", "object_contrast", "object_mean",
+                   "object_angle")
 
 #: Every section, key and its schema (``""`` is the top level).
 SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
@@ -103,12 +105,18 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "contrast": Key("float", None, lo=0.0, hi=1.0, doc="texture contrast"),
         "edge_density": Key("float", None, lo=0.005, hi=0.45,
                             doc="target Canny edge density of the left image (closed loop)"),
-        "occluders": Key("int", 0, lo=0, hi=64, doc="number of occluding objects added"),
+        "occluders": Key("int", 0, lo=0, hi=256, doc="number of occluding objects added"),
         "occluder_size": Key("float", 0.15, lo=0.0, lo_open=True, hi=1.0,
                              doc="occluder size, fraction of the image width"),
         "occluder_depth": Key("float", 1.5, lo=0.0, lo_open=True,
                               doc="occluder centre depth, metres"),
         "occluder_kind": Key("str", "box", choices=OCCLUDER_KINDS, doc="occluder shape"),
+        "occluder_each": Key("bool", None,
+                             doc="draw occluder_kind, occluder_size and occluder_depth per "
+                                 "occluder (unset: once per sample, all occluders alike)"),
+        "occluder_deform": Key("float", None, lo=0.0, hi=1.0,
+                               doc="chance of each occluder to be twisted, bent or tapered (one "
+                                   "of the three, up to pi/4 rad or 0.5)"),
         # materials and light (all unset: matte scenes under the preset's light, as before)
         "specular_fraction": Key("float", None, lo=0.0, hi=1.0,
                                  doc="chance of each object to get a specular material"),
@@ -159,4 +167,5 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
 })
 
 #: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
-EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig", "middlebury-like")
+EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig", "middlebury-like", "floating",
+            "dense")

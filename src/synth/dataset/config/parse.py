@@ -340,6 +340,11 @@ class _Parser:
                             fix="choose another texture or remove edge_density")
         self.per_object(scene)
         self.meshes(scene)
+        if "occluder_each" in scene and scene["occluder_each"].kind != "fixed":
+            raise self.fail("scene", "occluder_each", "true or false",
+                            str(scene["occluder_each"].to_toml()),
+                            fix="one value for the whole dataset: draw the occluders' kinds, "
+                                "sizes and depths with their own keys")
         return DatasetConfig(
             name=name, seed=top.get("seed", 0), count=top.get("count", 10),
             preview=top.get("preview", False), rig=rig,

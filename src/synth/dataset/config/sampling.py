@@ -114,20 +114,61 @@ class SampleDraw:
     relight: tuple[LightSpec, tuple[LampSpec, ...]] | None = None
 
 
+#: How a family occluder of extent ``side`` (metres) is sized: ``(rng, side) -> size``.
+_FAMILY_SIZES = {
+    "superquadric": lambda rng, side: tuple(side * rng.uniform(0.5, 1.0, size=3)),
+    "furniture": lambda rng, side: (side * rng.uniform(0.5, 1.0), side,
+                                    side * rng.uniform(0.4, 0.9)),
+    "rock": lambda rng, side: (side / 2,),
+    "polyhedron": lambda rng, side: (side / 2,),
+    "torus": lambda rng, side: (side * 0.35, side * 0.35 * rng.uniform(0.1, 0.45)),
+    "knot": lambda rng, side: (side / 2, side / 2 * rng.uniform(0.04, 0.125)),
+    "revolution": lambda rng, side: (side * rng.uniform(0.2, 0.5), side),
+    "extrusion": lambda rng, side: (side / 2, side * rng.uniform(0.1, 0.6)),
+    "tree": lambda rng, side: (side * rng.uniform(0.5, 1.0), side),
+    "bush": lambda rng, side: (side, side * rng.uniform(0.4, 0.8)),
+    "wire": lambda rng, side: (side, side * rng.uniform(0.01, 0.04)),
+}
+#: ``occluder_deform``: the largest twist and bend (radians) and taper of a deformed occluder.
+_DEFORM_ANGLE, _DEFORM_TAPER = np.pi / 4, 0.5
+
+
+#: Drawn per occluder under ``occluder_each`` (from the occluder stream, in this order).
+_EACH_KEYS = ("occluder_kind", "occluder_depth", "occluder_size")
+
+
+def _occluder_each(config: DatasetConfig) -> bool:
+    dist = config.scene.get("occluder_each")  # a fixed value (the parser refuses a draw)
+    return dist is not None and bool(dist.args[0])
+
+
+def _deformation(rng: np.random.Generator) -> tuple[float, float, float]:
+    """One of twist, bend or taper, of a random sign and size up to the limits above."""
+    which = int(rng.integers(0, 3))
+    amount = float(rng.uniform(-1.0, 1.0)) * (_DEFORM_TAPER if which == 2 else _DEFORM_ANGLE)
+    out = [0.0, 0.0, 0.0]
+    out[which] = amount
+    return (out[0], out[1], out[2])
+
+
 def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Generator,
                texture_kind: str | None) -> list[ObjectSpec]:
     rig = config.rig
     draw_mesh = config.scene.get("occluder_mesh")
+    each = _occluder_each(config)
+    deform_chance = config.scene.get("occluder_deform")
     out = []
     f_px = draw.get("frequency_px") or _DEFAULT_OCCLUDER_FREQUENCY_PX
     for i in range(int(draw["occluders"])):
+        if each:  # this occluder's own kind, depth and size
+            draw = {**draw, **{k: config.scene[k].sample(rng) for k in _EACH_KEYS}}
         z = float(draw["occluder_depth"])
         u, v = rng.uniform(0.0, rig.width), rng.uniform(0.0, rig.height)
         x, y = (u - rig.cx) * z / rig.fx, (v - rig.cy) * z / rig.fy
         side = float(draw["occluder_size"]) * rig.width * z / rig.fx  # metres
         rotation = tuple(float(a) for a in rng.uniform(0.0, 360.0, size=3))
         kind = str(draw["occluder_kind"])
-        path = ""
+        path, seed = "", 0
         if kind == "mesh":  # scaled to a bounding-box diagonal of `side`, its box centred there
             path = str(draw_mesh.sample(rng))
             data = load_mesh_file(path)
@@ -137,6 +178,9 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
         elif kind in ("fence", "grid"):  # six bars across, 1.5 px thick (at least side / 40)
             thick = max(side / 40.0, 1.5 * z / rig.fx)
             size = (side, side, side / 6.0, min(thick, side / 12.0))
+        elif kind in _FAMILY_SIZES:  # the shape is the seed's
+            size = tuple(float(a) for a in _FAMILY_SIZES[kind](rng, side))
+            seed = int(rng.integers(0, 2**63))
         else:
             size = {"box": (side, side, side), "sphere": (side / 2,),
                     "cylinder": (side / 2, side)}[kind]
@@ -146,13 +190,16 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
             contrast=0.8 if contrast is None else float(contrast),
             mean=float(rng.uniform(0.3, 0.7)), seed=int(rng.integers(0, 2**63)),
             angle=float(rng.uniform(0.0, 180.0)))
+        deform = (0.0, 0.0, 0.0)
+        if deform_chance is not None and rng.random() < float(deform_chance.sample(rng)):
+            deform = _deformation(rng)
         pose = Pose(translation=(x, y, z), rotation_deg=rotation)
         if path:
             shift = pose.rotation() @ ((lo + hi) / 2 * size[0])
             pose = Pose(translation=(x - shift[0], y - shift[1], z - shift[2]),
                         rotation_deg=rotation)
         out.append(ObjectSpec(kind, pose, size, texture, name=f"occluder{i}", segments=32,
-                              path=path))
+                              path=path, seed=seed, deform=deform))
     return out
 
 
@@ -238,8 +285,9 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     """
     seed = sample_seed(config.seed, index)
     rng = stream(seed, _STREAM_PARAMS)
+    per_occluder = _EACH_KEYS if _occluder_each(config) else ()
     scene_draw = {k: d.sample(rng) for k, d in config.scene.items()
-                  if k not in _PER_ITEM and k not in PER_OBJECT_KEYS}
+                  if k not in _PER_ITEM and k not in PER_OBJECT_KEYS and k not in per_occluder}
     phot_draw = {k: d.sample(rng) for k, d in config.photometric.items()}
     preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
     scene = get_preset(str(scene_draw["base"]), seed=preset_seed)

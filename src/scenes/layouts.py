@@ -1,0 +1,153 @@
+"""Scene layouts that hold other objects: a furnished room and a distant backdrop.
+
+They are the base presets of the dataset configs ``floating`` and ``dense``
+(``src/synth/dataset/configs/``), which add their floating objects through the ``occluder_*``
+keys; the layout is the seed's, the rest is data in the config.
+
+- :func:`room`: the rig stands inside a room 4-9 m wide, 5-11 m deep and 2.4-3.6 m high, the
+  cameras 1.2-1.8 m above the floor (so every view direction ahead meets a surface: floor,
+  walls, ceiling). Against the walls stand 4-9 pieces of furniture (tables, chairs, shelves,
+  stools, lamps: :mod:`scenes.families`); on the tops of most of them, and on the floor, lie
+  3-12 smaller things (rocks, vases and bottles, polyhedra, superquadrics, tori, boxes): the
+  background clutter of a lived-in room.
+- :func:`backdrop`: one wall at 60 m, framed for the default rig, behind whatever a config
+  puts in front of it (``dense``: up to 200 objects at 5-50 m).
+
+Textures are noise at about 8 pixels per period at each object's depth, as the other presets;
+a config's ``object_*`` keys redraw them per object (photographs, frequencies, contrast).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scenes.spec import ObjectSpec, Pose, SceneSpec, TextureSpec
+
+__all__ = ["room", "backdrop", "BACKDROP_DEPTH"]
+
+#: Depth of :func:`backdrop`'s wall, metres.
+BACKDROP_DEPTH = 60.0
+_FOCAL, _BASELINE, _MARGIN = 600.0, 0.1, 1.4  # the default rig the presets are framed for
+_PERIOD_PX = 8.0
+_FRONT = 0.2  # metres ahead of the cameras where the room's floor, walls and ceiling begin
+#: Kinds of the small things on furniture tops and on the floor (a repeat weighs a kind).
+_CLUTTER = ("rock", "revolution", "polyhedron", "superquadric", "torus", "box", "revolution")
+
+
+def _r4(x: float) -> float:
+    return float(round(float(x), 4))
+
+
+def _texture(rng: np.random.Generator, depth: float) -> TextureSpec:
+    return TextureSpec(kind="noise", frequency=_r4(_FOCAL / (_PERIOD_PX * max(depth, 0.5))
+                                                   * rng.uniform(0.8, 1.25)),
+                       contrast=_r4(rng.uniform(0.4, 1.0)), mean=_r4(rng.uniform(0.3, 0.7)),
+                       color=tuple(_r4(c) for c in rng.uniform(0.6, 1.0, size=3)),
+                       seed=int(rng.integers(0, 2**31)), angle=_r4(rng.uniform(0.0, 180.0)))
+
+
+def _surface(name: str, centre: tuple[float, float, float], rotation: tuple[float, float, float],
+             size: tuple[float, float], rng: np.random.Generator, depth: float) -> ObjectSpec:
+    return ObjectSpec("plane", Pose(translation=tuple(_r4(c) for c in centre),
+                                    rotation_deg=rotation),
+                      tuple(_r4(s) for s in size), _texture(rng, depth), name=name)
+
+
+def _clutter(rng: np.random.Generator, name: str, x: float, floor_y: float, z: float,
+             scale: float) -> ObjectSpec:
+    """A small thing resting on the surface at height ``floor_y`` (y down), centred at x, z."""
+    kind = str(rng.choice(_CLUTTER))
+    if kind == "revolution":
+        size = (_r4(scale * rng.uniform(0.25, 0.5)), _r4(scale * rng.uniform(0.6, 1.0)))
+        half = size[1] / 2
+    elif kind in ("rock", "polyhedron"):
+        size = (_r4(scale * rng.uniform(0.3, 0.5)),)
+        half = size[0]
+    elif kind == "torus":
+        size = (_r4(scale * 0.4), _r4(scale * 0.4 * rng.uniform(0.15, 0.45)))
+        half = size[0] + size[1]  # lying at any angle: its bounding sphere rests there
+    else:  # box, superquadric
+        size = tuple(_r4(v) for v in scale * rng.uniform(0.3, 0.7, size=3))
+        half = size[1] / 2
+    rotation = (0.0, _r4(rng.uniform(0.0, 360.0)), 0.0)
+    if kind in ("rock", "polyhedron", "torus"):
+        rotation = tuple(_r4(a) for a in rng.uniform(0.0, 360.0, size=3))
+    return ObjectSpec(kind, Pose(translation=(_r4(x), _r4(floor_y - half), _r4(z)),
+                                 rotation_deg=rotation), size, _texture(rng, z),
+                      name=name, segments=32, seed=int(rng.integers(0, 2**63)))
+
+
+def room(seed: int) -> SceneSpec:
+    """A furnished room around the rig (see the module docstring).
+
+    Examples
+    --------
+    >>> spec = room(0)
+    >>> [o.name for o in spec.objects[:5]]
+    ['floor', 'ceiling', 'back_wall', 'left_wall', 'right_wall']
+    >>> room(0) == room(0) != room(1)
+    True
+    """
+    rng = np.random.default_rng(seed)
+    width, depth, height = rng.uniform(4.0, 9.0), rng.uniform(5.0, 11.0), rng.uniform(2.4, 3.6)
+    eye = rng.uniform(1.2, 1.8)  # cameras above the floor; y points down
+    x0 = _BASELINE / 2 + rng.uniform(-0.3, 0.3) * width  # the rig need not stand in the middle
+    left, right = x0 - width / 2, x0 + width / 2
+    # the room's surfaces start _FRONT ahead of the cameras (nothing behind them is drawn);
+    # the default rig's views meet the floor, walls and ceiling beyond 2 m
+    floor_y, ceiling_y, back = eye, eye - height, depth - 1.0
+    mid_y, mid_z, span = (floor_y + ceiling_y) / 2, (back + _FRONT) / 2, back - _FRONT
+    objects = [
+        _surface("floor", (x0, floor_y, mid_z), (-90.0, 0.0, 0.0), (width, span), rng, mid_z),
+        _surface("ceiling", (x0, ceiling_y, mid_z), (90.0, 0.0, 0.0), (width, span), rng, mid_z),
+        _surface("back_wall", (x0, mid_y, back), (0.0, 0.0, 0.0), (width, height), rng, back),
+        _surface("left_wall", (left, mid_y, mid_z), (0.0, -90.0, 0.0), (span, height), rng,
+                 mid_z),
+        _surface("right_wall", (right, mid_y, mid_z), (0.0, 90.0, 0.0), (span, height), rng,
+                 mid_z),
+    ]
+    tops = []
+    for i in range(int(rng.integers(4, 10))):
+        sx, sy, sz = rng.uniform(0.4, 1.6), rng.uniform(0.45, min(2.0, 0.8 * height)), \
+            rng.uniform(0.35, 0.9)
+        side = rng.integers(0, 3)  # 0 back wall, 1 left, 2 right
+        if side == 0:
+            x, z, turn = rng.uniform(left + sx, right - sx), back - sz / 2 - 0.05, 0.0
+        else:
+            z = rng.uniform(1.5, back - 0.5)
+            x = left + sz / 2 + 0.05 if side == 1 else right - sz / 2 - 0.05
+            turn = 90.0 if side == 1 else -90.0
+        turn += rng.uniform(-15.0, 15.0)
+        objects.append(ObjectSpec(
+            "furniture", Pose(translation=(_r4(x), _r4(floor_y - sy / 2), _r4(z)),
+                              rotation_deg=(0.0, _r4(turn), 0.0)),
+            (_r4(sx), _r4(sy), _r4(sz)), _texture(rng, z), name=f"furniture{i}", segments=32,
+            seed=int(rng.integers(0, 2**63))))
+        tops.append((x, floor_y - sy, z, min(sx, sz)))
+    for i, (x, top, z, span) in enumerate(tops):
+        if rng.random() < 0.7:
+            objects.append(_clutter(rng, f"on_furniture{i}", x, top, z, min(0.35, span)))
+    for i in range(int(rng.integers(1, 6))):
+        z = rng.uniform(2.0, back - 0.5)
+        x = rng.uniform(left + 0.5, right - 0.5)
+        objects.append(_clutter(rng, f"on_floor{i}", x, floor_y, z, rng.uniform(0.2, 0.6)))
+    return SceneSpec("room", tuple(objects), seed=seed,
+                     description="a furnished room around the rig: floor, walls, ceiling, "
+                                 "furniture, clutter on it and on the floor")
+
+
+def backdrop(seed: int) -> SceneSpec:
+    """One noise wall at :data:`BACKDROP_DEPTH` covering the default rig's views.
+
+    Examples
+    --------
+    >>> backdrop(0).objects[0].pose.translation
+    (0.05, 0.0, 60.0)
+    """
+    rng = np.random.default_rng(seed)
+    half_w, half_h = 320 / _FOCAL * BACKDROP_DEPTH, 240 / _FOCAL * BACKDROP_DEPTH
+    size = (_r4(_MARGIN * (2 * half_w + _BASELINE)), _r4(_MARGIN * 2 * half_h * 1.2))
+    wall = ObjectSpec("plane", Pose(translation=(_BASELINE / 2, 0.0, BACKDROP_DEPTH)), size,
+                      _texture(rng, BACKDROP_DEPTH), name="backdrop")
+    return SceneSpec("backdrop", (wall,), seed=seed,
+                     description=f"one noise wall at {BACKDROP_DEPTH:g} m")

@@ -1,0 +1,213 @@
+"""The families as dataset content: per-occluder draws, deformations, the floating and dense
+configurations (determinism across workers, resume, verify) and the room layout."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import time
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import scenes
+from scenes.layouts import room
+from synth.dataset.compare import compare_datasets, summarize
+from synth.dataset.config.parse import ConfigError, load_config, loads_config, resized
+from synth.dataset.config.sampling import draw_sample
+from synth.dataset.run import run_dataset
+
+EACH = """\
+seed = 3
+[rig]
+width = 96
+height = 54
+[scene]
+base = "backdrop"
+occluders = 12
+occluder_each = true
+occluder_kind = {choice = ["superquadric", "rock", "torus", "knot", "revolution", "extrusion",
+                           "polyhedron", "tree", "bush", "wire", "furniture", "box"]}
+occluder_size = {uniform = [0.05, 0.2]}
+occluder_depth = {uniform = [5.0, 50.0]}
+"""
+
+
+def _occluders(draw) -> list[scenes.ObjectSpec]:
+    return [o for o in draw.scene.objects if o.name.startswith("occluder")]
+
+
+def test_occluder_each_draws_every_occluder_its_own_kind_depth_and_size():
+    cfg = loads_config(EACH)
+    draw = draw_sample(cfg, 0)
+    occ = _occluders(draw)
+    assert len(occ) == 12
+    assert len({o.kind for o in occ}) >= 5  # 12 draws of 12 kinds
+    assert len({o.pose.translation[2] for o in occ}) == 12
+    assert all(5.0 <= o.pose.translation[2] <= 50.0 for o in occ)
+    # a family's shape is its own seed's; nothing per-sample is recorded for the three keys
+    assert len({o.seed for o in occ if o.kind in scenes.FAMILY_KINDS}) == sum(
+        o.kind in scenes.FAMILY_KINDS for o in occ)
+    assert not {"scene.occluder_kind", "scene.occluder_depth", "scene.occluder_size"} & set(
+        draw.params)
+    assert draw_sample(cfg, 0) == draw and draw_sample(cfg, 1) != draw
+    # without the key every occluder shares the sample's draw, as before
+    plain = draw_sample(loads_config(EACH.replace("occluder_each = true\n", "")), 0)
+    assert len({o.pose.translation[2] for o in _occluders(plain)}) == 1
+    assert "scene.occluder_depth" in plain.params
+
+
+@pytest.mark.parametrize(("chance", "deformed"), [(0.0, 0), (1.0, 12)])
+def test_occluder_deform_gives_one_of_twist_bend_taper_within_limits(chance, deformed):
+    draw = draw_sample(loads_config(EACH + f"occluder_deform = {chance}\n"), 0)
+    occ = _occluders(draw)
+    assert sum(any(o.deform) for o in occ) == deformed
+    for o in occ:
+        twist, bend, taper = o.deform
+        assert sum(v != 0 for v in o.deform) <= 1
+        assert abs(twist) <= np.pi / 4 and abs(bend) <= np.pi / 4 and abs(taper) <= 0.5
+
+
+def test_occluder_each_takes_one_value_not_a_draw():
+    with pytest.raises(ConfigError, match="occluder_each.*true or false.*one value"):
+        loads_config(EACH.replace("occluder_each = true", "occluder_each = {choice = [true, "
+                                                          "false]}"))
+
+
+def test_deform_is_checked_and_written_only_when_set():
+    pose = scenes.Pose(translation=(0.0, 0.0, 3.0))
+    obj = scenes.ObjectSpec("box", pose, (1.0, 1.0, 1.0), deform=[0.5, 0, 0])
+    assert obj.deform == (0.5, 0.0, 0.0)
+    assert "deform" in scenes.scene_to_dict(scenes.SceneSpec("s", (obj,)))["objects"][0]
+    plain = dataclasses.replace(obj, deform=(0.0, 0.0, 0.0))
+    assert "deform" not in scenes.scene_to_dict(scenes.SceneSpec("s", (plain,)))["objects"][0]
+    assert scenes.scene_from_dict(scenes.scene_to_dict(scenes.SceneSpec("s", (obj,)))
+                                  ).objects[0] == obj
+    for bad, words in (((7.0, 0.0, 0.0), "twist"), ((0.0, 0.0, 0.95), "taper"),
+                       ((0.0, 4.0, 0.0), "bend")):
+        with pytest.raises(ValueError, match=f"deform {words}"):
+            scenes.ObjectSpec("box", pose, (1.0, 1.0, 1.0), deform=bad)
+    with pytest.raises(ValueError, match="deformed plane"):
+        scenes.ObjectSpec("plane", pose, (1.0, 1.0), deform=(0.1, 0.0, 0.0))
+    for kind, size, words in (("torus", (0.2, 0.2), "tube < radius"),
+                              ("knot", (0.4, 0.07), r"tube <= 0.15 \* radius"),
+                              ("wire", (0.1, 0.03), r"thickness <= 0.25 \* length")):
+        with pytest.raises(ValueError, match=words):
+            scenes.ObjectSpec(kind, pose, size)
+
+
+def test_a_deformed_mesh_keeps_its_outline_closed_and_moves_as_asked():
+    pose = scenes.Pose(translation=(0.0, 0.0, 3.0))
+    box = scenes.ObjectSpec("box", pose, (0.2, 1.0, 0.2), deform=(0.0, 0.0, 0.5))
+    mesh = scenes.build_mesh(box)
+    v = np.asarray(mesh.vertices) - (0.0, 0.0, 3.0)
+    top, bottom = v[np.isclose(v[:, 1], -0.5)], v[np.isclose(v[:, 1], 0.5)]
+    # taper 0.5: the top (t = -1) half as wide, the bottom (t = +1) 1.5 times as wide
+    assert np.abs(top[:, 0]).max() == pytest.approx(0.05)
+    assert np.abs(bottom[:, 0]).max() == pytest.approx(0.15)
+    import trimesh
+
+    merged = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
+    assert merged.is_watertight and merged.volume > 0
+
+
+def test_the_room_surrounds_the_rig_with_furniture_and_clutter():
+    for seed in range(5):
+        spec = room(seed)
+        names = [o.name for o in spec.objects]
+        assert names[:5] == ["floor", "ceiling", "back_wall", "left_wall", "right_wall"]
+        furniture = [o for o in spec.objects if o.kind == "furniture"]
+        assert 4 <= len(furniture) <= 9
+        floor_y = spec.objects[0].pose.translation[1]
+        for o in furniture:  # standing on the floor (its feet at local +y / 2)
+            assert o.pose.translation[1] + o.size[1] / 2 == pytest.approx(floor_y, abs=1e-3)
+        meshes = scenes.build_meshes(spec)
+        z = np.concatenate([m.vertices[:, 2] for m in meshes])
+        assert z.min() > 0.1  # everything ahead of the near plane
+
+
+@pytest.fixture(scope="module")
+def small_configs(tmp_path_factory) -> dict[str, Path]:
+    """The shipped floating and dense at 96 x 54 (fx scaled as `--size` does), 4 samples."""
+    out = {}
+    for name in ("floating", "dense"):
+        text = (resources.files("synth.dataset") / "configs" / f"{name}.toml").read_text()
+        text = text.replace("width = 960", "width = 96").replace("height = 540", "height = 54")
+        text = text.replace("count = 100", "count = 4")
+        path = tmp_path_factory.mktemp(name) / f"{name}.toml"
+        path.write_text(text)
+        cfg = load_config(path)
+        assert (cfg.rig.width, cfg.rig.fx, cfg.count) == (96, 90.0, 4)
+        assert cfg.rig == resized(load_config(name), 96, 54).rig
+        out[name] = path
+    return out
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["floating", "dense"])
+def test_new_configs_give_the_same_bytes_with_two_workers_and_verify(small_configs, name,
+                                                                     tmp_path):
+    from synth.dataset.config.parse import load_config as load
+
+    cfg = load(small_configs[name])
+    one, two = tmp_path / "one", tmp_path / "two"
+    run_dataset(cfg, out=one, workers=1, progress=False)
+    run_dataset(cfg, out=two, workers=2, progress=False)
+    differences = compare_datasets(one, two)
+    assert not differences, summarize(differences)
+    cli = [sys.executable, "-c", "from synth.cli import main; main()"]
+    run = subprocess.run(cli + ["dataset", "--verify", str(one)], capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_floating_resumes_after_sigkill_with_the_same_bytes(small_configs, tmp_path):
+    from synth.dataset.config.parse import load_config as load
+
+    cfg = load(small_configs["floating"])
+    reference = tmp_path / "ref"
+    run_dataset(cfg, out=reference, workers=1, progress=False)
+    out = tmp_path / "killed"
+    cli = [sys.executable, "-c", "from synth.cli import main; main()"]
+    proc = subprocess.Popen(cli + ["dataset", str(small_configs["floating"]), "--out", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while not list((out / "records").glob("*.json")) if (out / "records").exists() else True:
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.01)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    run = run_dataset(cfg, out=out, workers=1, progress=False)
+    assert run.skipped >= 1 and run.rendered >= 1 and run.rendered + run.skipped == 4
+    differences = compare_datasets(reference, out)
+    assert not differences, summarize(differences)
+
+
+@pytest.mark.gl
+def test_the_contact_sheets_tile_every_family_and_config(tmp_path):
+    from PIL import Image
+
+    from synth.jobs.sheets import DEFORMED_EXAMPLES, config_sheet, family_sheet
+
+    with Image.open(family_sheet(tmp_path / "f.png", width=40, height=30, seeds=(0,),
+                                 columns=4)) as sheet:
+        tiles = len(scenes.FAMILY_KINDS) + len(DEFORMED_EXAMPLES)
+        assert sheet.size == (4 * (2 * 40 + 4), -(-tiles // 4) * (30 + 4))
+        pixels = np.asarray(sheet)
+    assert pixels[:30, :80].std() > 0  # a rendered tile, not a blank
+    with Image.open(config_sheet(tmp_path / "c.jpg", ["floating"], count=2, width=48,
+                                 height=27)) as sheet:
+        assert sheet.size == (2 * (2 * 48 + 4), 27 + 4)
