@@ -25,8 +25,8 @@ import numpy as np
 
 from stereoforge.errors import SceneError
 
-__all__ = ["AssetError", "IMAGE_SUFFIXES", "MeshData", "check_photo_source", "load_photo",
-           "load_mesh_file", "list_folder"]
+__all__ = ["AssetError", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "MeshData", "check_photo_source",
+           "list_mesh_folder", "load_photo", "load_mesh_file", "list_folder"]
 
 #: File suffixes a photograph folder is searched for (case-insensitive).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".ppm", ".pgm")
@@ -69,6 +69,33 @@ def list_folder(folder: str) -> list[str]:
         raise AssetError(f"photograph folder {folder!r} holds no image file "
                          f"({', '.join(IMAGE_SUFFIXES)}); add images or name a file")
     return files
+
+
+#: File suffixes a mesh folder is searched for, in every subfolder (case-insensitive).
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".glb", ".gltf", ".off")
+
+
+def list_mesh_folder(folder: str) -> list[str]:
+    """The mesh files under ``folder`` (by :data:`MESH_SUFFIXES`, subfolders included, as
+    ShapeNet's and Objaverse's trees nest them), sorted by path; listed once per process.
+
+    Raises
+    ------
+    AssetError
+        If ``folder`` holds no mesh file.
+    """
+    files = _mesh_folder(str(Path(folder)))
+    if not files:
+        raise AssetError(f"mesh folder {folder!r} holds no mesh file "
+                         f"({', '.join(MESH_SUFFIXES)}, subfolders included); add meshes or "
+                         "name a file")
+    return list(files)
+
+
+@functools.lru_cache(maxsize=8)
+def _mesh_folder(folder: str) -> tuple[str, ...]:
+    return tuple(sorted(str(p) for p in Path(folder).rglob("*")
+                        if p.suffix.lower() in MESH_SUFFIXES and p.is_file()))
 
 
 def check_photo_source(source: str) -> None:

@@ -99,7 +99,7 @@ occluders = 2
         (("seed = 1", "seed = {uniform = [1, 2]}"), 2, ["takes a fixed value"]),
         (("[rig]", "[rigs]"), 4, ["unknown key 'rigs'", "[rig]"]),
         (("occluders = 2", "occluders = 2.5"), 9,
-         ["scene.occluders: expected an integer in [0, 64], got float 2.5"]),
+         ["scene.occluders: expected an integer in [0, 256], got float 2.5"]),
         (("occluders = 2", "occluders = {choice = [1, 'a']}"), 9,
          ["scene.occluders.choice[1]: expected an integer", "got str 'a'"]),
         (("seed = 1", "seed = true"), 2, ["seed: expected an integer", "got bool True"]),
@@ -163,7 +163,7 @@ def test_load_config_passes_parsed_configs_through():
 # --------------------------------------------------------------------------- line numbers
 def test_line_after_a_multiline_string_that_mentions_a_table():
     # the [scene] inside the string is no table header: the key is on line 6, not 3
-    text = 'name = """\n[scene]\noccluders = 1\n"""\n[scene]\noccluders = 99\n'
+    text = 'name = """\n[scene]\noccluders = 1\n"""\n[scene]\noccluders = 999\n'
     with pytest.raises(ConfigError, match=r"^my\.toml:6: scene\.occluders: expected an integer"):
         loads_config(text, source="my.toml")
     literal = text.replace('"""', "'''")
@@ -174,7 +174,7 @@ def test_line_after_a_multiline_string_that_mentions_a_table():
 def test_line_inside_an_inline_table():
     text = 'name = "t"\n\nscene = { base = "boxes", occluders = -1 }\n'
     with pytest.raises(ConfigError, match=r"^my\.toml:3: scene\.occluders: expected an integer "
-                                          r"in \[0, 64\].*got -1"):
+                                          r"in \[0, 256\].*got -1"):
         loads_config(text, source="my.toml")
 
 

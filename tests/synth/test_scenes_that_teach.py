@@ -139,6 +139,7 @@ def small_configs(tmp_path_factory) -> dict[str, Path]:
         text = (resources.files("synth.dataset") / "configs" / f"{name}.toml").read_text()
         text = text.replace("width = 960", "width = 96").replace("height = 540", "height = 54")
         text = text.replace("count = 100", "count = 4")
+        text = text.replace("fx = {uniform = [700.0, 1100.0]}", "fx = {uniform = [70.0, 110.0]}")
         path = tmp_path_factory.mktemp(name) / f"{name}.toml"
         path.write_text(text)
         cfg = load_config(path)
@@ -211,3 +212,158 @@ def test_the_contact_sheets_tile_every_family_and_config(tmp_path):
     with Image.open(config_sheet(tmp_path / "c.jpg", ["floating"], count=2, width=48,
                                  height=27)) as sheet:
         assert sheet.size == (2 * (2 * 48 + 4), 27 + 4)
+
+
+# --------------------------------------------------------------------------- the rig per sample
+RIG = """\
+seed = 5
+[rig]
+width = 64
+height = 48
+{rig}
+[scene]
+base = "flying"
+occluders = 3
+occluder_size = {{uniform = [0.1, 0.3]}}
+"""
+
+
+def test_a_drawn_baseline_and_focal_length_vary_per_sample_and_change_nothing_else():
+    drawn = loads_config(RIG.format(rig="baseline = {uniform = [0.04, 0.4]}\n"
+                                        "fx = {loguniform = [40.0, 80.0]}"))
+    assert drawn.rig.baseline == pytest.approx(0.22) and drawn.rig.fx == pytest.approx(
+        np.sqrt(40.0 * 80.0))  # the nominal rig: the middle of each draw
+    rigs = [draw_sample(drawn, i).rig for i in range(20)]
+    assert len({r.baseline for r in rigs}) == 20
+    assert all(0.04 <= r.baseline <= 0.4 and 40.0 <= r.fx <= 80.0 and r.fy == r.fx for r in rigs)
+    draw = draw_sample(drawn, 3)
+    assert draw.params["rig.baseline"] == draw.rig.baseline
+    assert draw.params["rig.fx"] == draw.rig.fx
+    # the same scene draws as with fixed values: only the rig comes from its own stream
+    fixed = loads_config(RIG.format(rig="baseline = 0.1"))
+    a, b = draw_sample(fixed, 3), draw_sample(loads_config(
+        RIG.format(rig="baseline = {uniform = [0.04, 0.4]}")), 3)
+    assert a.scene == b.scene and a.photometric == b.photometric
+    assert {k: v for k, v in b.params.items() if not k.startswith("rig.")} == a.params
+    assert "rig.baseline" not in a.params and a.rig == fixed.rig
+    # the configuration round-trips; --size scales the drawn focal length
+    from synth.dataset.config.parse import config_from_dict
+
+    assert config_from_dict(drawn.to_dict()) == drawn
+    assert config_from_dict(drawn.to_dict()).hash() == drawn.hash()
+    assert resized(drawn, 128, 96).to_dict()["rig"]["fx"] == {"loguniform": [80.0, 160.0]}
+
+
+def test_only_baseline_and_fx_may_be_drawn():
+    with pytest.raises(ConfigError, match="rig.near.*fixed value"):
+        loads_config(RIG.format(rig="near = {choice = [0.1, 0.2]}"))
+    with pytest.raises(ConfigError, match=r"rig.baseline.uniform\[0\].*\(0.0, 100.0\]"):
+        loads_config(RIG.format(rig="baseline = {uniform = [0.0, 0.4]}"))
+
+
+def test_a_layout_refuses_a_drawn_rig_by_its_extremes(tmp_path):
+    # fx = 60 px: the nominal baseline (2.55 m) fits CREStereo's 2048 px at the 0.1 m near
+    # plane, the largest drawn one (5 m) does not: refused before anything is rendered
+    text = RIG.format(rig="baseline = {uniform = [0.1, 5.0]}")
+    with pytest.raises(ValueError, match="crestereo holds disparities up to"):
+        run_dataset(loads_config(text), out=tmp_path / "d", fmt="crestereo", progress=False)
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.gl
+def test_each_sample_writes_its_own_calibration(tmp_path):
+    cfg = loads_config(RIG.format(rig="baseline = {uniform = [0.04, 0.4]}"))
+    run_dataset(cfg, out=tmp_path / "d", count=3, progress=False)
+    from matcher.io import read_calib
+
+    for i in range(3):
+        folder = tmp_path / "d" / "MiddEval3" / "trainingF" / f"{i:06d}"
+        calib = read_calib(folder / "calib.txt")
+        assert calib["baseline"] == pytest.approx(1000 * draw_sample(cfg, i).rig.baseline,
+                                                  rel=1e-6)
+
+
+# --------------------------------------------------------------------------- redraws
+DARK = """\
+seed = 2
+redraw = 6
+[rig]
+width = 32
+height = 24
+[scene]
+base = "boxes"
+occluders = 2
+occluder_depth = {choice = [0.05, 1.5, 1.5]}
+[photometric]
+gamma = {choice = [1.0, 1.0, 10.0]}
+"""
+
+
+@pytest.mark.gl
+def test_frames_that_teach_nothing_are_drawn_again_the_same_way_each_time(tmp_path, renderer):
+    from synth.dataset.sample import produce_sample, teaches_nothing
+
+    cfg = loads_config(DARK)
+    records = [produce_sample(cfg, i, renderer, tmp_path / f"s{i}", "middlebury")
+               for i in range(8)]
+    reasons = [r for rec in records for r in rec["stats"]["redrawn_for"]]
+    # occluders nearer than the 0.1 m near plane, a gamma that darkens all: both redrawn
+    assert {"depth range", "too dark"} <= set(reasons)
+    for i, rec in enumerate(records):
+        stats = rec["stats"]
+        assert stats["redraws"] == len(stats["redrawn_for"]) <= 6
+        if stats["redraws"]:  # the kept draw is the last one's: its seed and parameters
+            assert rec["seed"] == draw_sample(cfg, i, attempt=stats["redraws"]).seed
+        if stats["teaches_nothing"] is None:
+            from PIL import Image
+
+            folder = tmp_path / f"s{i}"
+            with Image.open(folder / "im0.png") as im:
+                left = np.asarray(im)
+            with Image.open(folder / "mask0nocc.png") as im:
+                mask = np.asarray(im)
+            assert teaches_nothing(mask, left) is None
+    again = produce_sample(cfg, 3, renderer, tmp_path / "again", "middlebury")
+    assert again == records[3]
+    # without the key nothing is redrawn and the stats hold no redraw entry
+    plain = loads_config(DARK.replace("redraw = 6\n", "").replace(
+        "occluder_depth = {choice = [0.05, 1.5, 1.5]}", "occluder_depth = 1.5"))
+    rec = produce_sample(plain, 0, renderer, tmp_path / "plain", "middlebury")
+    assert "redraws" not in rec["stats"]
+    # a frame that stays useless is kept after the last redraw, and says so
+    dark = loads_config(DARK.replace("gamma = {choice = [1.0, 1.0, 10.0]}", "gamma = 10.0")
+                        .replace("occluder_depth = {choice = [0.05, 1.5, 1.5]}",
+                                 "occluder_depth = 1.5"))
+    stats = produce_sample(dark, 0, renderer, tmp_path / "dark", "middlebury")["stats"]
+    assert stats["redraws"] == 6 and stats["redrawn_for"] == ["too dark"] * 6
+    assert stats["teaches_nothing"] == "too dark"
+
+
+def test_a_folder_of_meshes_is_an_occluder_kind(tmp_path):
+    import trimesh
+
+    for i, sub in enumerate(("a/models", "b", "b/deeper")):
+        (tmp_path / "meshes" / sub).mkdir(parents=True, exist_ok=True)
+        trimesh.creation.box(extents=(1.0, 1.0 + i, 1.0)).export(
+            tmp_path / "meshes" / sub / f"m{i}.obj")
+    (tmp_path / "meshes" / "notes.txt").write_text("not a mesh")
+    text = EACH.replace('occluder_kind = {choice = ["superquadric", "rock", "torus", "knot", '
+                        '"revolution", "extrusion",\n                           "polyhedron", '
+                        '"tree", "bush", "wire", "furniture", "box"]}',
+                        f'occluder_kind = "mesh"\noccluder_mesh = "{tmp_path / "meshes"}"')
+    text = text.replace("occluder_size = {uniform = [0.05, 0.2]}", "occluder_size = 0.1")
+    cfg = loads_config(text)
+    paths = {o.path for i in range(4) for o in _occluders(draw_sample(cfg, i))}
+    assert paths == {str(p) for p in sorted((tmp_path / "meshes").rglob("*.obj"))}
+    from scenes.assets import load_mesh_file
+
+    for o in _occluders(draw_sample(cfg, 0)):  # normalised: bounding-box diagonal = its size
+        v = load_mesh_file(o.path).vertices
+        # the drawn point (the box centre) is at the pose's translation plus the centre's shift
+        centre_z = (o.pose.rotation() @ ((v.min(axis=0) + v.max(axis=0)) / 2 * o.size[0]))[2]
+        side = 0.1 * cfg.rig.width * (o.pose.translation[2] + centre_z) / cfg.rig.fx
+        diagonal = np.linalg.norm(v.max(axis=0) - v.min(axis=0)) * o.size[0]
+        assert diagonal == pytest.approx(side, rel=1e-9)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ConfigError, match="occluder_mesh.*holds no mesh file"):
+        loads_config(text.replace(str(tmp_path / "meshes"), str(tmp_path / "empty")))

@@ -41,7 +41,7 @@ from synth.write.export import write_pair
 from synth.appearance.photometric import apply_photometric
 from synth.appearance.texture_control import edge_density, match_edge_density
 
-__all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw"]
+__all__ = ["SampleError", "SampleTask", "produce_sample", "render_draw", "teaches_nothing"]
 
 
 #: OS errors that are the machine's, not a sample's: raised as they are (the command line gives
@@ -69,10 +69,41 @@ def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
     and its measured textureless fraction (:mod:`synth.appearance.textureless`)."""
     from synth.appearance.textureless import match_textureless, object_coverage
 
-    rig = config.rig
+    rig = draw.rig
     coverage = object_coverage(scene, lambda s: renderer.render_view(s, rig, eye="left").color)
     return match_textureless(scene, float(draw.params["scene.textureless_area"]), coverage,
                              rig.width * rig.height, stream(draw.seed, STREAM_TEXTURELESS))
+
+
+#: A frame teaches nothing when more of its pixels than this have no ground truth ...
+USELESS_INVALID_FRACTION = 0.95
+#: ... or its left image's mean grey level (0-255, all channels) is below this.
+USELESS_MEAN_GREY = 15.0
+
+
+def teaches_nothing(mask: np.ndarray, left: np.ndarray) -> str | None:
+    """Why a frame teaches nothing (``"no ground truth"``, ``"too dark"``), or None.
+
+    ``mask`` is the left occlusion mask (0: no ground truth), ``left`` the left image as written.
+
+    Examples
+    --------
+    >>> teaches_nothing(np.zeros((4, 4), np.uint8), np.full((4, 4, 3), 99, np.uint8))
+    'no ground truth'
+    >>> teaches_nothing(np.full((4, 4), 255, np.uint8), np.full((4, 4, 3), 9, np.uint8))
+    'too dark'
+    """
+    if np.count_nonzero(mask == 0) > USELESS_INVALID_FRACTION * mask.size:
+        return "no ground truth"
+    if float(np.mean(left)) < USELESS_MEAN_GREY:
+        return "too dark"
+    return None
+
+
+def _depth_range_error(exc: BaseException) -> bool:
+    from synth.render.meshes import DepthRangeError
+
+    return isinstance(exc, DepthRangeError)
 
 
 def _r(value: float | None) -> float | None:
@@ -82,14 +113,14 @@ def _r(value: float | None) -> float | None:
 # --------------------------------------------------------------------------- one sample
 def render_draw(config: DatasetConfig, draw: Any, scene: Any, renderer: Any) -> Any:
     """The exact pair of a drawn sample: ``scene`` (the draw's, possibly changed after drawing)
-    through the config's rig, with the draw's ``im1E`` exposure and ``im1L`` relighting when it
+    through the sample's rig (the config's, its distributions drawn), with the draw's ``im1E`` exposure and ``im1L`` relighting when it
     asks for them. The one place a dataset sample (and a validate pair) is rendered."""
     from synth.pair import render_pair
 
     lighting = None
     if draw.relight is not None:
         lighting = dataclasses.replace(scene, light=draw.relight[0], lamps=draw.relight[1])
-    return render_pair(scene, config.rig, renderer=renderer, exposure=draw.exposure,
+    return render_pair(scene, draw.rig, renderer=renderer, exposure=draw.exposure,
                        lighting=lighting)
 
 
@@ -110,20 +141,34 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
             timings[f"{stage}_cpu"] = timings.get(f"{stage}_cpu", 0.0) + now[1] - clock[1]
         clock[:] = now
 
-    draw = draw_sample(config, index)
-    scene, search = draw.scene, None
-    lap("draw")
-    if draw.edge_density is not None:
-        search = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer)
-        scene = search.scene
-    textureless = None
-    if "scene.textureless_area" in draw.params:
-        scene, textureless = _textureless(scene, config, draw, renderer)
-    lap("search")
-    pair = render_draw(config, draw, scene, renderer)
-    lap("render")
-    out = apply_photometric(pair.left, pair.right, draw.photometric,
-                            rng=stream(draw.seed, STREAM_PHOTOMETRIC))
+    attempt, rejected = 0, []
+    while True:  # a frame that teaches nothing is drawn again (``redraw``), deterministically
+        draw = draw_sample(config, index, attempt=attempt)
+        scene, search = draw.scene, None
+        lap("draw")
+        if draw.edge_density is not None:
+            search = match_edge_density(scene, draw.rig, draw.edge_density, renderer=renderer)
+            scene = search.scene
+        textureless = None
+        if "scene.textureless_area" in draw.params:
+            scene, textureless = _textureless(scene, config, draw, renderer)
+        lap("search")
+        try:
+            pair = render_draw(config, draw, scene, renderer)
+        except ValueError as exc:
+            if not (_depth_range_error(exc) and attempt < (config.redraw or 0)):
+                raise
+            rejected.append("depth range")
+            attempt += 1
+            continue
+        lap("render")
+        out = apply_photometric(pair.left, pair.right, draw.photometric,
+                                rng=stream(draw.seed, STREAM_PHOTOMETRIC))
+        useless = None if config.redraw is None else teaches_nothing(pair.mask_left, out.left)
+        if useless is None or attempt >= config.redraw:
+            break
+        rejected.append(useless)
+        attempt += 1
     variants = {}  # the right-view variants under the same sensor model, their own noise
     for name, noise in (("right_exposure", STREAM_EXPOSURE_NOISE),
                         ("right_lighting", STREAM_LIGHTING_NOISE)):
@@ -147,7 +192,7 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
         "edge_density": _r(rho),
         "edge_search_probes": None if search is None else search.probes,
         "edge_search_converged": None if search is None else search.converged,
-        "texture_frequency_px": _r(effective_frequency_px(scene, fx=config.rig.fx)),
+        "texture_frequency_px": _r(effective_frequency_px(scene, fx=draw.rig.fx)),
         "disp_min": _r(disp_lo) if has_finite else None,
         "disp_max": _r(disp_hi) if has_finite else None,
         # = np.mean(mask == code): the same float (an exact count over the size)
@@ -156,6 +201,10 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     }
     if textureless is not None:  # only then: other datasets keep their manifests' bytes
         stats["textureless_fraction"] = _r(textureless)
+    if config.redraw is not None:  # the same
+        stats["redraws"] = attempt
+        stats["redrawn_for"] = rejected
+        stats["teaches_nothing"] = useless  # None, or why the last allowed draw was kept
     lap("stats")
     record = {"index": index, "seed": draw.seed, "dir": f"{index:06d}",
               "params": dict(draw.params), "stats": stats}

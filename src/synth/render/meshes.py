@@ -18,8 +18,8 @@ if TYPE_CHECKING:
 
     from synth.camera.rig import StereoRig
 
-__all__ = ["DEFAULT_LIGHT", "DISPLAY_GAMMA", "Mesh", "as_meshes", "check_depth_range",
-           "prepare_mesh", "texture_array"]
+__all__ = ["DEFAULT_LIGHT", "DISPLAY_GAMMA", "DepthRangeError", "Mesh", "as_meshes",
+           "check_depth_range", "prepare_mesh", "texture_array"]
 
 # Default lighting for bare mesh lists (SceneSpec brings its own).
 DEFAULT_LIGHT = ((0.3, 0.5, 1.0), 0.7, 0.3)  # direction (light -> scene), intensity, ambient
@@ -172,15 +172,21 @@ def texture_array(image: Any) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
+class DepthRangeError(ValueError):
+    """An object reaches behind the camera or outside the rig's ``[near, far]`` depths (a
+    ``ValueError``; a dataset with ``redraw`` draws such a sample again)."""
+
+
 def check_depth_range(meshes: Sequence[Mesh], rig: StereoRig) -> None:
+    """Raise :class:`DepthRangeError` if a mesh leaves ``(0, inf)`` or ``[near, far]``."""
     for m in meshes:
         if m.zmin <= 0:
-            raise ValueError(
+            raise DepthRangeError(
                 f"object {m.name!r} reaches z={m.zmin:.4g} <= 0, behind the left camera "
                 f"(world frame = left camera, z forward); move it in front (z > near={rig.near})"
             )
         if m.zmin < rig.near or m.zmax > rig.far:
-            raise ValueError(
+            raise DepthRangeError(
                 f"object {m.name!r} spans z in [{m.zmin:.4g}, {m.zmax:.4g}], outside the rig's "
                 f"[near, far] = [{rig.near}, {rig.far}]; move the object or change the rig's "
                 "near/far"

@@ -101,9 +101,9 @@ def render_sample(config_dict: dict, seed: int, renderer: Any, *, scene_hook: An
     draw = draw_sample(config, seed)
     scene = draw.scene
     if scene_hook is not None:
-        scene = scene_hook(scene, config.rig, value)
+        scene = scene_hook(scene, draw.rig, value)
     if draw.edge_density is not None:
-        scene = match_edge_density(scene, config.rig, draw.edge_density, renderer=renderer).scene
+        scene = match_edge_density(scene, draw.rig, draw.edge_density, renderer=renderer).scene
     pair = render_draw(config, draw, scene, renderer)
     # an exposure or lighting change between the cameras: the matcher's right view is the
     # variant (Middlebury's im1E / im1L), under the same sensor model

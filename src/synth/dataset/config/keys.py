@@ -59,6 +59,10 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "seed": Key("int", 0, lo=0, hi=MAX_SEED - 1, doc="dataset seed"),
         "count": Key("int", 10, lo=1, hi=999_999, doc="number of samples"),
         "preview": Key("bool", False, doc="also write preview.png per sample"),
+        "redraw": Key("int", None, lo=0, hi=32,
+                      doc="draw a sample again (its next sub-seed), at most this many times, "
+                          "while its frame teaches nothing: over 95 % of pixels without ground "
+                          "truth, a mean grey level under 15, or geometry outside [near, far]"),
         "ground_truth": Key("str", None, choices=GROUND_TRUTH_KINDS, array=True, distinct=True,
                             doc="optional ground truth to write too "
                                 "(see synth.write.extra_ground_truth)"),
@@ -137,7 +141,8 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "lighting_variant": Key("float", None, lo=0.0, hi=180.0,
                                 doc="im1L: degrees the light directions turn for the right view"),
         "occluder_mesh": Key("str", None, doc="mesh file of 'mesh' occluders (OBJ, PLY, STL, "
-                             "GLB, ...), drawn per occluder"),
+                             "GLB, ...) or a folder of them (subfolders included), drawn per "
+                             "occluder"),
         "object_texture": Key("str", None, choices=OBJECT_TEXTURES,
                               doc="texture kind, drawn per object (repeat a choice to weight it)"),
         "object_image": Key("str", None, doc="photograph of an 'image' texture, drawn per "

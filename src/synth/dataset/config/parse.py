@@ -17,14 +17,11 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
-
-import numpy as np
 
 from stereoforge.errors import ConfigError, StereoforgeError
 from stereoforge.validation import check_input_file, check_keys, describe
@@ -43,6 +40,8 @@ from synth.dataset.config.keys import (
     allowed_values,
 )
 from synth.camera.rig import StereoRig
+from synth.dataset.config.dists import Dist
+from synth.dataset.config.rig_draws import RIG_DRAW_KEYS, nominal
 
 __all__ = [
     "ConfigError",
@@ -56,52 +55,6 @@ __all__ = [
     "list_examples",
     "resized",
 ]
-
-# --------------------------------------------------------------------------- distributions
-@dataclass(frozen=True)
-class Dist:
-    """A distribution of one parameter.
-
-    Parameters
-    ----------
-    kind : {"fixed", "uniform", "loguniform", "choice"}
-    args : tuple
-        ``(value,)`` for fixed, ``(a, b)`` for uniform/loguniform, the values for choice.
-    integer : bool
-        Draws of uniform/loguniform are integers in ``[a, b]``.
-
-    Examples
-    --------
-    >>> d = Dist("uniform", (1.0, 2.0))
-    >>> 1.0 <= d.sample(np.random.default_rng(0)) <= 2.0
-    True
-    >>> Dist("choice", ("a", "b")).to_toml()
-    {'choice': ['a', 'b']}
-    """
-
-    kind: str
-    args: tuple[Any, ...]
-    integer: bool = False
-
-    def sample(self, rng: np.random.Generator) -> Any:
-        """One draw (plain Python value). Fixed values consume no randomness."""
-        if self.kind == "fixed":
-            return self.args[0]
-        if self.kind == "choice":
-            value = self.args[int(rng.integers(len(self.args)))]
-            return value
-        a, b = self.args
-        if self.kind == "uniform":
-            if self.integer:
-                return int(rng.integers(int(a), int(b) + 1))
-            return float(rng.uniform(a, b))
-        x = math.exp(rng.uniform(math.log(a), math.log(b + 1 if self.integer else b)))
-        return min(int(math.floor(x)), int(b)) if self.integer else float(x)
-
-    def to_toml(self) -> Any:
-        """The TOML/JSON value this distribution was written as."""
-        return self.args[0] if self.kind == "fixed" else {self.kind: list(self.args)}
-
 
 # --------------------------------------------------------------------------- the config
 @dataclass(frozen=True)
@@ -117,6 +70,12 @@ class DatasetConfig:
         Number of samples (``run_dataset(count=...)`` overrides it).
     preview : bool
     rig : StereoRig
+        The nominal rig: drawn keys at the middle of their distribution
+        (:func:`synth.dataset.config.rig_draws.nominal`); a sample's own is its draw's ``rig``.
+    rig_draws : Mapping[str, Dist]
+        The ``[rig]`` keys drawn per sample (``baseline``, ``fx``; empty: one rig for all).
+    redraw : int or None
+        How many times a frame that teaches nothing is drawn again (``synth.dataset.sample``).
     ground_truth : tuple of str
         Optional ground truth written with each sample (``synth.write.extra_ground_truth.GROUND_TRUTH``;
         empty by default).
@@ -145,11 +104,19 @@ class DatasetConfig:
     source: str = field(default="<string>", compare=False)
     ground_truth: tuple[str, ...] = ()
     image_deflate: str | None = None
+    rig_draws: Mapping[str, Dist] = field(default_factory=lambda: MappingProxyType({}))
+    redraw: int | None = None
 
     def to_dict(self, *, with_count: bool = True) -> dict[str, Any]:
         """Canonical plain dict (the TOML structure, defaults filled in)."""
         rig = {k: v for k, v in self.rig.to_dict().items() if k in IDEAL_RIG_KEYS}
         rig.update(_camera_keys(self.rig))
+        if self.rig_draws:  # drawn per sample (rig_draws); absent: the hash is unchanged
+            rig.update({k: d.to_toml() for k, d in self.rig_draws.items()})
+            if "fx" in self.rig_draws:
+                rig.pop("fy", None)  # fy follows the drawn fx
+                if self.rig.fy != self.rig.fx:
+                    rig["fy"] = self.rig.fy
         out: dict[str, Any] = {"name": self.name, "seed": self.seed, "preview": self.preview,
                                "rig": rig,
                                "scene": {k: d.to_toml() for k, d in sorted(self.scene.items())},
@@ -159,6 +126,8 @@ class DatasetConfig:
             out["ground_truth"] = list(self.ground_truth)
         if self.image_deflate is not None:  # the same
             out["image_deflate"] = self.image_deflate
+        if self.redraw is not None:  # the same
+            out["redraw"] = self.redraw
         if with_count:
             out["count"] = self.count
         return out
@@ -244,13 +213,14 @@ class _Parser:
         if "mesh" in kinds and "occluder_mesh" not in scene:
             raise self.fail("scene", "occluder_kind", "occluder_mesh beside a 'mesh' choice",
                             "no occluder_mesh", fix="add occluder_mesh = 'model.obj'")
-        from scenes.assets import load_mesh_file
+        from scenes.assets import list_mesh_folder, load_mesh_file
 
         for value in scene["occluder_mesh"].args if "occluder_mesh" in scene else ():
-            try:
-                load_mesh_file(value)
+            try:  # a folder's files are loaded when drawn (a ShapeNet tree is large)
+                list_mesh_folder(value) if Path(value).is_dir() else load_mesh_file(value)
             except StereoforgeError as exc:
-                raise self.fail("scene", "occluder_mesh", "a mesh file trimesh loads",
+                raise self.fail("scene", "occluder_mesh", "a mesh file trimesh loads, or a "
+                                "folder of them",
                                 repr(value), fix=str(exc)) from None
 
     def per_object(self, scene: Mapping[str, Dist]) -> None:
@@ -301,8 +271,11 @@ class _Parser:
             top["ground_truth"] = self.toml.check(SCHEMA[""]["ground_truth"],
                                                   data["ground_truth"], ("ground_truth",))
         name = top.get("name", Path(self.source).stem if self.source != "<string>" else "dataset")
-        rig_kw = {k: self.scalar("rig", k, v)
-                  for k, v in self.section(data.get("rig", {}), "rig").items()}
+        raw_rig = self.section(data.get("rig", {}), "rig")
+        rig_draws = {k: self.dist("rig", k, raw_rig[k]) for k in RIG_DRAW_KEYS
+                     if isinstance(raw_rig.get(k), dict)}
+        rig_kw = {k: nominal(rig_draws[k]) if k in rig_draws else self.scalar("rig", k, v)
+                  for k, v in raw_rig.items()}
         rig_kw = {k: rig_kw.get(k, SCHEMA["rig"][k].default) for k in SCHEMA["rig"]}
         fx = rig_kw["fx"] if rig_kw["fx"] is not None else 600.0 * rig_kw["width"] / 640.0
         if not rig_kw["near"] < rig_kw["far"]:
@@ -346,12 +319,13 @@ class _Parser:
                             fix="one value for the whole dataset: draw the occluders' kinds, "
                                 "sizes and depths with their own keys")
         return DatasetConfig(
+            rig_draws=MappingProxyType(rig_draws),
             name=name, seed=top.get("seed", 0), count=top.get("count", 10),
             preview=top.get("preview", False), rig=rig,
             scene=MappingProxyType(scene), photometric=MappingProxyType(sections["photometric"]),
             source=self.source,
             ground_truth=tuple(k for k in GROUND_TRUTH_KINDS if k in (top.get("ground_truth") or ())),
-            image_deflate=top.get("image_deflate"),
+            image_deflate=top.get("image_deflate"), redraw=top.get("redraw"),
         )
 
 
@@ -479,6 +453,9 @@ def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
     (960, 540, 900.0)
     """
     data = config.to_dict()
+    scale = width / config.rig.width
+    fx = config.rig_draws.get("fx")
     data["rig"] = {**data["rig"], "width": int(width), "height": int(height),
-                   "fx": config.rig.fx * width / config.rig.width}
+                   "fx": config.rig.fx * scale if fx is None else
+                   Dist(fx.kind, tuple(a * scale for a in fx.args)).to_toml()}
     return config_from_dict(data, source=f"{config.source} at {width}x{height}")

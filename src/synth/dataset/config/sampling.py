@@ -7,13 +7,15 @@ independent streams ``SeedSequence(sample_seed, spawn_key=(k,))``: ``k = 0`` the
 ``1`` the preset's seed, ``2`` the occluders, ``3`` the photometric noise, ``4`` the materials,
 lamps and relighting, ``5``/``6`` the photometric noise of ``im1E``/``im1L``, ``7`` the per-object
 textures (the ``object_*`` keys, drawn for every object in scene order: kind, then photograph,
-frequency, contrast, mean, angle where given, then the texture's seed). Nothing depends on
+frequency, contrast, mean, angle where given, then the texture's seed), ``8`` the ``[rig]``
+distributions (:mod:`synth.dataset.config.rig_draws`). Nothing depends on
 which worker renders the sample, nor when.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -29,13 +31,15 @@ from scenes import (
     TextureSpec,
     get_preset,
 )
-from scenes.assets import load_mesh_file
+from scenes.assets import list_mesh_folder, load_mesh_file
 from scenes.materials import turn_lights
+from synth.camera.rig import StereoRig
 from synth.dataset.config.parse import PER_OBJECT_KEYS, DatasetConfig
+from synth.dataset.config.rig_draws import draw_rig
 from synth.appearance.photometric import PhotometricParams
 from synth.appearance.texture_control import retexture
 
-__all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px",
+__all__ = ["sample_seed", "redraw_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px",
            "STREAM_PHOTOMETRIC", "STREAM_EXPOSURE_NOISE", "STREAM_LIGHTING_NOISE",
            "STREAM_TEXTURELESS"]
 
@@ -43,6 +47,8 @@ __all__ = ["sample_seed", "stream", "SampleDraw", "draw_sample", "effective_freq
 # (drawing, the photometric noise of the dataset run and of validate's pairs).
 (_STREAM_PARAMS, _STREAM_PRESET, _STREAM_OCCLUDERS, STREAM_PHOTOMETRIC, _STREAM_LIGHT,
  STREAM_EXPOSURE_NOISE, STREAM_LIGHTING_NOISE, _STREAM_TEXTURES) = range(8)
+#: Stream 8 is the rig's (``rig_draws.STREAM_RIG``); 9 spawns the redraws' seeds.
+_STREAM_REDRAW = 9
 #: The order in which objects are made textureless (``textureless_area``). It shares the
 #: exposure variant's stream (a permutation, and independent noise bits for ``im1E``, read
 #: from the same generator state): kept so that existing datasets keep their bytes.
@@ -102,6 +108,9 @@ class SampleDraw:
         ``exposure_variant``: the linear exposure factor of ``im1E``, if asked for.
     relight : (LightSpec, tuple of LampSpec) or None
         ``lighting_variant``: the light and lamps ``im1L`` is rendered under, if asked for.
+    rig : StereoRig
+        The sample's rig: the configuration's, with its ``[rig]`` distributions drawn
+        (:mod:`synth.dataset.config.rig_draws`).
     """
 
     index: int
@@ -112,6 +121,11 @@ class SampleDraw:
     photometric: PhotometricParams
     exposure: float | None = None
     relight: tuple[LightSpec, tuple[LampSpec, ...]] | None = None
+    rig: StereoRig | None = None
+
+    def __post_init__(self) -> None:
+        if self.rig is None:
+            raise TypeError("SampleDraw.rig: expected the sample's StereoRig, got None")
 
 
 #: How a family occluder of extent ``side`` (metres) is sized: ``(rng, side) -> size``.
@@ -151,9 +165,8 @@ def _deformation(rng: np.random.Generator) -> tuple[float, float, float]:
     return (out[0], out[1], out[2])
 
 
-def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Generator,
-               texture_kind: str | None) -> list[ObjectSpec]:
-    rig = config.rig
+def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rig: StereoRig,
+               rng: np.random.Generator, texture_kind: str | None) -> list[ObjectSpec]:
     draw_mesh = config.scene.get("occluder_mesh")
     each = _occluder_each(config)
     deform_chance = config.scene.get("occluder_deform")
@@ -171,6 +184,9 @@ def _occluders(draw: Mapping[str, Any], config: DatasetConfig, rng: np.random.Ge
         path, seed = "", 0
         if kind == "mesh":  # scaled to a bounding-box diagonal of `side`, its box centred there
             path = str(draw_mesh.sample(rng))
+            if os.path.isdir(path):  # a folder (ShapeNet, Objaverse): one of its files
+                files = list_mesh_folder(path)
+                path = files[int(rng.integers(len(files)))]
             data = load_mesh_file(path)
             lo, hi = data.vertices.min(axis=0), data.vertices.max(axis=0)
             scale = side / max(float(np.linalg.norm(hi - lo)), 1e-12)
@@ -247,8 +263,8 @@ def _materials_and_lamps(scene: SceneSpec, draw: Mapping[str, Any], config: Data
     return scene, drawn
 
 
-def _object_textures(scene: SceneSpec, config: DatasetConfig, rng: np.random.Generator
-                     ) -> SceneSpec:
+def _object_textures(scene: SceneSpec, config: DatasetConfig, fx: float,
+                     rng: np.random.Generator) -> SceneSpec:
     """Every object's texture drawn from the ``object_*`` keys (unset ones keep its own)."""
     dists = config.scene
     objects = []
@@ -259,7 +275,7 @@ def _object_textures(scene: SceneSpec, config: DatasetConfig, rng: np.random.Gen
         changes: dict[str, Any] = {"kind": kind, "image": image if kind == "image" else ""}
         if "object_frequency_px" in dists:
             f_px = float(dists["object_frequency_px"].sample(rng))
-            changes["frequency"] = f_px * config.rig.fx / obj.pose.translation[2]
+            changes["frequency"] = f_px * fx / obj.pose.translation[2]
         for key in ("contrast", "mean", "angle"):
             if f"object_{key}" in dists:
                 changes[key] = float(dists[f"object_{key}"].sample(rng))
@@ -269,11 +285,26 @@ def _object_textures(scene: SceneSpec, config: DatasetConfig, rng: np.random.Gen
     return dataclasses.replace(scene, objects=tuple(objects))
 
 
-def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
+def redraw_seed(seed: int, attempt: int) -> int:
+    """The seed of redraw ``attempt`` (>= 1) of a sample with seed ``seed`` (the configuration's
+    ``redraw``): ``SeedSequence(seed, spawn_key=(9, attempt))``, an int in ``[0, 2**63)``.
+
+    Examples
+    --------
+    >>> redraw_seed(5, 1) == redraw_seed(5, 1) != redraw_seed(5, 2)
+    True
+    """
+    state = np.random.SeedSequence(int(seed), spawn_key=(_STREAM_REDRAW, int(attempt)))
+    return int(state.generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+def draw_sample(config: DatasetConfig, index: int, *, attempt: int = 0) -> SampleDraw:
     """Draw sample ``index``'s parameters and build its scene.
 
     Every key of ``[scene]`` then ``[photometric]`` is drawn in schema order from the parameter
-    stream (fixed values draw nothing), so a sample does not depend on any other.
+    stream (fixed values draw nothing), so a sample does not depend on any other. ``attempt``
+    > 0 is the sample drawn again (a frame that taught nothing, ``redraw``): everything from
+    :func:`redraw_seed` of its seed instead.
 
     Examples
     --------
@@ -284,6 +315,10 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     (True, True)
     """
     seed = sample_seed(config.seed, index)
+    if attempt:
+        seed = redraw_seed(seed, attempt)
+    rig, rig_values = draw_rig(config.rig, config.rig_draws, seed,
+                               fy_follows=config.rig.fy == config.rig.fx)
     rng = stream(seed, _STREAM_PARAMS)
     per_occluder = _EACH_KEYS if _occluder_each(config) else ()
     scene_draw = {k: d.sample(rng) for k, d in config.scene.items()
@@ -292,15 +327,15 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
     scene = get_preset(str(scene_draw["base"]), seed=preset_seed)
     kind = None if scene_draw["texture"] == "preset" else str(scene_draw["texture"])
-    extra = _occluders(scene_draw, config, stream(seed, _STREAM_OCCLUDERS), kind)
+    extra = _occluders(scene_draw, config, rig, stream(seed, _STREAM_OCCLUDERS), kind)
     if extra:
         scene = SceneSpec(scene.name, (*extra, *scene.objects), light=scene.light,
                           background=scene.background, seed=scene.seed,
                           description=scene.description)
-    scene = retexture(scene, fx=config.rig.fx, frequency_px=scene_draw.get("frequency_px"),
+    scene = retexture(scene, fx=rig.fx, frequency_px=scene_draw.get("frequency_px"),
                       contrast=scene_draw.get("contrast"), kind=kind)
     if "object_texture" in config.scene:
-        scene = _object_textures(scene, config, stream(seed, _STREAM_TEXTURES))
+        scene = _object_textures(scene, config, rig.fx, stream(seed, _STREAM_TEXTURES))
     light_rng = stream(seed, _STREAM_LIGHT)
     scene, per_item = _materials_and_lamps(scene, scene_draw, config, light_rng)
     relight = None
@@ -310,10 +345,11 @@ def draw_sample(config: DatasetConfig, index: int) -> SampleDraw:
     params.update({f"scene.{k}": v for k, v in per_item.items()})
     params.update({f"photometric.{k}": v for k, v in phot_draw.items()})
     params["scene.preset_seed"] = preset_seed
+    params.update({f"rig.{k}": v for k, v in rig_values.items()})
     return SampleDraw(index=int(index), seed=seed, params=params, scene=scene,
                       edge_density=scene_draw.get("edge_density"),
                       photometric=PhotometricParams.from_mapping(phot_draw),
-                      exposure=scene_draw.get("exposure_variant"), relight=relight)
+                      exposure=scene_draw.get("exposure_variant"), relight=relight, rig=rig)
 
 
 def effective_frequency_px(scene: SceneSpec, *, fx: float) -> float | None:

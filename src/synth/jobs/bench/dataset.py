@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from matcher.io import DEFLATE, check_deflate
 from synth.dataset.config.parse import resized
+from synth.dataset.config.rig_draws import extreme_rigs
 from synth.formats import DEFAULT_FORMAT, get_layout
 
 if TYPE_CHECKING:
@@ -160,7 +161,9 @@ def bench_dataset(
             layout.check_config(flow=cfg.rig.errors is not None,
                                 ground_truth=tuple(cfg.ground_truth or ()), source=str(cfg.source),
                                 image_deflate=cfg.image_deflate)
-            layout.check_rig(cfg.rig, source=str(cfg.source))
+            for rig in extreme_rigs(cfg.rig, cfg.rig_draws,
+                                    fy_follows=cfg.rig.fy == cfg.rig.fx):
+                layout.check_rig(rig, source=str(cfg.source))
     rows: list[dict] = []
     with contextlib.ExitStack() as cluster:
         if address is not None:  # joined once: every run below uses this connection
