@@ -1,6 +1,6 @@
-"""Scene layouts that hold other objects: a furnished room and a distant backdrop.
+"""Scene layouts that hold other objects: a furnished room, a distant backdrop, the outdoors.
 
-They are the base presets of the dataset configs ``floating`` and ``dense``
+They are the base presets of the dataset configs ``floating``, ``dense`` and ``outdoor``
 (``src/synth/dataset/configs/``), which add their floating objects through the ``occluder_*``
 keys; the layout is the seed's, the rest is data in the config.
 
@@ -12,6 +12,11 @@ keys; the layout is the seed's, the rest is data in the config.
   background clutter of a lived-in room.
 - :func:`backdrop`: one wall at 60 m, framed for the default rig, behind whatever a config
   puts in front of it (``dense``: up to 200 objects at 5-50 m).
+- :func:`outdoor`: rolling ground (a terrain 120 x 94 m, relief 0.5-3 m) under the cameras at
+  1.2-2.5 m, 6-25 trees, 6-30 bushes and 10-40 rocks standing on it at 3-60 m (each at the
+  ground's height where it stands, sunk in by 5 % of its height, rocks by half), and a
+  distant backdrop at 95 m: a
+  low-contrast bluish noise wall where a sky would be (a sky at infinity is not drawn yet).
 
 Textures are noise at about 8 pixels per period at each object's depth, as the other presets;
 a config's ``object_*`` keys redraw them per object (photographs, frequencies, contrast).
@@ -21,14 +26,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.spec import ObjectSpec, Pose, SceneSpec, TextureSpec
+from scenes.primitives import terrain_heights
+from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
 
-__all__ = ["room", "backdrop", "BACKDROP_DEPTH"]
+__all__ = ["room", "backdrop", "outdoor", "BACKDROP_DEPTH", "HORIZON_DEPTH"]
 
 #: Depth of :func:`backdrop`'s wall, metres.
 BACKDROP_DEPTH = 60.0
+#: Depth of :func:`outdoor`'s distant backdrop, metres (inside the default far plane, 100 m).
+HORIZON_DEPTH = 95.0
 _FOCAL, _BASELINE, _MARGIN = 600.0, 0.1, 1.4  # the default rig the presets are framed for
 _PERIOD_PX = 8.0
+_SINK = 0.05  # how far what stands on the ground is sunk into it, a fraction of its height
 _FRONT = 0.2  # metres ahead of the cameras where the room's floor, walls and ceiling begin
 #: Kinds of the small things on furniture tops and on the floor (a repeat weighs a kind).
 _CLUTTER = ("rock", "revolution", "polyhedron", "superquadric", "torus", "box", "revolution")
@@ -151,3 +160,79 @@ def backdrop(seed: int) -> SceneSpec:
                       _texture(rng, BACKDROP_DEPTH), name="backdrop")
     return SceneSpec("backdrop", (wall,), seed=seed,
                      description=f"one noise wall at {BACKDROP_DEPTH:g} m")
+
+
+def _ground(terrain: ObjectSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World grid ``x`` (nx + 1,), ``z`` (nz + 1,) and ground ``y`` (nz + 1, nx + 1) of an
+    unrotated terrain."""
+    x, z, height = terrain_heights(terrain)
+    tx, ty, tz = terrain.pose.translation
+    return x + tx, z + tz, ty - height
+
+
+def _ground_y(ground: tuple[np.ndarray, np.ndarray, np.ndarray], x: float, z: float) -> float:
+    """The ground's height (its ``y``) at ``(x, z)``, bilinear over the grid cell holding it
+    (within a few millimetres of its two triangles for this relief)."""
+    gx, gz, gy = ground
+    i = int(np.clip(np.searchsorted(gx, x) - 1, 0, len(gx) - 2))
+    k = int(np.clip(np.searchsorted(gz, z) - 1, 0, len(gz) - 2))
+    tx = float(np.clip((x - gx[i]) / (gx[i + 1] - gx[i]), 0.0, 1.0))
+    tz = float(np.clip((z - gz[k]) / (gz[k + 1] - gz[k]), 0.0, 1.0))
+    top = gy[k, i] * (1 - tx) + gy[k, i + 1] * tx
+    bottom = gy[k + 1, i] * (1 - tx) + gy[k + 1, i + 1] * tx
+    return float(top * (1 - tz) + bottom * tz)
+
+
+def outdoor(seed: int) -> SceneSpec:
+    """Ground, trees, bushes and rocks at 3-60 m, a distant backdrop (see the module docstring).
+
+    Examples
+    --------
+    >>> spec = outdoor(0)
+    >>> spec.objects[0].kind, spec.objects[1].name
+    ('terrain', 'horizon')
+    >>> outdoor(0) == outdoor(0) != outdoor(1)
+    True
+    """
+    rng = np.random.default_rng(seed)
+    eye = rng.uniform(1.2, 2.5)
+    # from 0.3 m ahead (nothing behind the cameras) to 94.3 m, before the backdrop at 95 m
+    terrain = ObjectSpec("terrain", Pose(translation=(_BASELINE / 2, _r4(eye), 47.3)),
+                         (120.0, 94.0, _r4(rng.uniform(0.5, 3.0))), _texture(rng, 20.0),
+                         name="ground", segments=96, seed=int(rng.integers(0, 2**63)))
+    half_w, half_h = 320 / _FOCAL * HORIZON_DEPTH, 240 / _FOCAL * HORIZON_DEPTH
+    sky = TextureSpec(kind="noise", frequency=_r4(rng.uniform(0.02, 0.1)),
+                      contrast=_r4(rng.uniform(0.1, 0.35)), mean=_r4(rng.uniform(0.55, 0.85)),
+                      color=(_r4(rng.uniform(0.6, 0.8)), _r4(rng.uniform(0.75, 0.9)), 1.0),
+                      seed=int(rng.integers(0, 2**31)))
+    horizon = ObjectSpec("plane", Pose(translation=(_BASELINE / 2, 0.0, HORIZON_DEPTH)),
+                         (_r4(_MARGIN * (2 * half_w + _BASELINE)), _r4(_MARGIN * 2 * half_h)),
+                         sky, name="horizon")
+    ground = _ground(terrain)
+    objects = [terrain, horizon]
+    kinds = [("tree", int(rng.integers(6, 26))), ("bush", int(rng.integers(6, 31))),
+             ("rock", int(rng.integers(10, 41)))]
+    for kind, count in kinds:
+        for i in range(count):
+            z = float(np.exp(rng.uniform(np.log(3.0), np.log(60.0))))
+            x = _BASELINE / 2 + rng.uniform(-0.7, 0.7) * z
+            if kind == "tree":
+                size = (rng.uniform(2.0, 7.0), rng.uniform(3.0, 12.0))
+            elif kind == "bush":
+                size = (rng.uniform(0.5, 2.5), rng.uniform(0.4, 1.6))
+            else:
+                size = (rng.uniform(0.15, 1.5),)
+            size = tuple(_r4(v) for v in size)
+            half = size[1] / 2 if kind != "rock" else 0.5 * size[0]  # rocks sunk by half
+            base = _ground_y(ground, x, z) + _SINK * size[1 if kind != "rock" else 0]
+            rotation = (0.0, _r4(rng.uniform(0.0, 360.0)), 0.0)
+            if kind == "rock":
+                rotation = tuple(_r4(a) for a in rng.uniform(0.0, 360.0, size=3))
+            objects.append(ObjectSpec(kind, Pose(translation=(_r4(x), _r4(base - half), _r4(z)),
+                                                 rotation_deg=rotation),
+                                      size, _texture(rng, z), name=f"{kind}{i}", segments=32,
+                                      seed=int(rng.integers(0, 2**63))))
+    light = LightSpec(direction=(_r4(rng.uniform(-0.6, 0.6)), 1.0, _r4(rng.uniform(0.2, 1.0))),
+                      intensity=0.85, ambient=0.3)
+    return SceneSpec("outdoor", tuple(objects), light=light, seed=seed,
+                     description="ground, trees, bushes and rocks at 3-60 m, a distant backdrop")

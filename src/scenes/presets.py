@@ -16,7 +16,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from scenes.layouts import backdrop, room
+from scenes.layouts import backdrop, outdoor, room
 from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
 
 __all__ = ["Preset", "PRESETS", "get_preset", "list_presets", "frame_cover_size"]
@@ -198,6 +198,8 @@ PRESETS: Mapping[str, Preset] = MappingProxyType({p.name: p for p in [
            "ceiling, 4-9 pieces of furniture and clutter on them and on the floor", room),
     Preset("backdrop", "one noise wall at 60 m, for configs that put their objects in front",
            backdrop),
+    Preset("outdoor", "rolling ground under the rig, 6-25 trees, 6-30 bushes and 10-40 rocks "
+           "on it at 3-60 m, a distant bluish backdrop at 95 m", outdoor),
 ]})
 
 

@@ -44,7 +44,8 @@ from scenes.families import FAMILY_BUILDERS, OPEN_FAMILIES, deform, subdivide
 from scenes.spec import ObjectSpec, SceneSpec
 from scenes.textures import band_limited_noise, texture_image
 
-__all__ = ["build_mesh", "build_meshes", "plane_equation", "OPEN_KINDS", "FAMILY_MAX_SEGMENTS"]
+__all__ = ["build_mesh", "build_meshes", "plane_equation", "terrain_heights", "OPEN_KINDS",
+           "FAMILY_MAX_SEGMENTS"]
 
 #: Kinds whose meshes are open surfaces (render them double-sided).
 OPEN_KINDS: frozenset[str] = frozenset({"plane", "moebius", "terrain"})
@@ -171,7 +172,13 @@ def _moebius(obj: ObjectSpec) -> _Local:
                                                                           width)
 
 
-def _terrain(obj: ObjectSpec) -> _Local:
+def terrain_heights(obj: ObjectSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The relief of a ``"terrain"`` object in its local frame: grid coordinates ``x``
+    ((nx + 1,) float64) and ``z`` ((nz + 1,)), and ``height`` ((nz + 1, nx + 1) float64, up is
+    ``-y``: a vertex lies at ``(x, -height, z)``). What :func:`build_mesh` triangulates; use it
+    to stand things on the ground (:mod:`scenes.layouts`)."""
+    if not isinstance(obj, ObjectSpec) or obj.kind != "terrain":
+        raise ValueError(f"terrain_heights needs an ObjectSpec of kind 'terrain', got {obj!r}")
     width, depth, amplitude = obj.size
     long_side = max(width, depth)
     nx = max(2, round(obj.segments * width / long_side))
@@ -183,6 +190,13 @@ def _terrain(obj: ObjectSpec) -> _Local:
                                 rng=np.random.default_rng(obj.seed))
     peak = np.abs(relief).max()
     height = amplitude * relief / peak if peak > 0 else np.zeros_like(relief)
+    return x, z, height
+
+
+def _terrain(obj: ObjectSpec) -> _Local:
+    width, depth, _ = obj.size
+    x, z, height = terrain_heights(obj)
+    nx, nz = len(x) - 1, len(z) - 1
     zz, xx = np.meshgrid(z, x, indexing="ij")
     verts = np.stack([xx, -height, zz], -1).reshape(-1, 3)
     coords = np.stack([xx + width / 2, zz + depth / 2], -1).reshape(-1, 2)

@@ -92,8 +92,9 @@ def test_preset_meshes_are_in_front_and_fill_both_views(name: str) -> None:
     assert len(meshes) == len(spec.objects)
     verts = np.concatenate([m.vertices for m in meshes])
     # within the default near and far planes (0.1, 100 m); the room starts just ahead of the
-    # rig, the backdrop lies behind objects up to 50 m
-    lo, hi = {"room": (0.1, 50.0), "backdrop": (0.5, 100.0)}.get(name, (0.5, 50.0))
+    # rig, the backdrops lie behind objects up to 50 and 60 m
+    lo, hi = {"room": (0.1, 50.0), "backdrop": (0.5, 100.0),
+              "outdoor": (0.1, 100.0)}.get(name, (0.5, 50.0))
     assert verts[:, 2].min() > lo and verts[:, 2].max() < hi
     for m in meshes:
         assert max(m.visual.material.image.size) <= 2048

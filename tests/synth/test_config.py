@@ -22,7 +22,8 @@ def test_shipped_examples_parse_and_round_trip(name):
     cfg = load_config(name)
     assert cfg.name == name
     want = {"middlebury-like": (450, 375),  # Middlebury 2006 third size
-            "floating": (960, 540), "dense": (960, 540)}.get(name, (640, 480))
+            "floating": (960, 540), "dense": (960, 540),
+            "outdoor": (960, 540), "mix": (960, 540)}.get(name, (640, 480))
     assert (cfg.rig.width, cfg.rig.height) == want
     assert config_from_dict(cfg.to_dict()) == cfg
     assert config_from_dict(cfg.to_dict()).hash() == cfg.hash()

@@ -29,9 +29,10 @@ GOLDEN = Path(__file__).with_name("golden_samples.json")
 # the edge-density search), flying 4 (every photometric model: blur, gamma, gain, bias, noise, JPEG),
 # imperfect-rig 0 (distortion, rotation, offsets: the real cameras and flow0.flo),
 # middlebury-like 0 (photograph textures, fences and grids, textureless walls), floating 0 (the
-# room, every object family, deformations), dense 0 (up to 200 objects of every family)
+# room, every object family, deformations), dense 0 (up to 200 objects of every family),
+# outdoor 0 (terrain, trees, bushes, rocks), mix 0 and 1 are two of its parts
 CONFIGS = {"planes": 0, "texture-sweep": 0, "flying": 4, "imperfect-rig": 0, "middlebury-like": 0,
-           "floating": 0, "dense": 0}
+           "floating": 0, "dense": 0, "outdoor": 0, "mix": 0}
 
 
 def _digest(path: Path) -> str:

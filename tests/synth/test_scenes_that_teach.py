@@ -133,9 +133,10 @@ def test_the_room_surrounds_the_rig_with_furniture_and_clutter():
 
 @pytest.fixture(scope="module")
 def small_configs(tmp_path_factory) -> dict[str, Path]:
-    """The shipped floating and dense at 96 x 54 (fx scaled as `--size` does), 4 samples."""
+    """The shipped floating, dense and outdoor at 96 x 54 (fx scaled as `--size` does), 4
+    samples, and a mix of the three naming their files beside it."""
     out = {}
-    for name in ("floating", "dense"):
+    for name in ("floating", "dense", "outdoor"):
         text = (resources.files("synth.dataset") / "configs" / f"{name}.toml").read_text()
         text = text.replace("width = 960", "width = 96").replace("height = 540", "height = 54")
         text = text.replace("count = 100", "count = 4")
@@ -146,12 +147,17 @@ def small_configs(tmp_path_factory) -> dict[str, Path]:
         assert (cfg.rig.width, cfg.rig.fx, cfg.count) == (96, 90.0, 4)
         assert cfg.rig == resized(load_config(name), 96, 54).rig
         out[name] = path
+    mix = out["floating"].parent.parent / "mix" / "mix.toml"
+    mix.parent.mkdir()
+    parts = ", ".join(f'"../{n}0/{n}.toml"' for n in ("floating", "dense", "outdoor"))
+    mix.write_text(f'name = "mix"\ncount = 4\nredraw = 4\nmix = [{parts}]\n')
+    out["mix"] = mix
     return out
 
 
 @pytest.mark.gl
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["floating", "dense"])
+@pytest.mark.parametrize("name", ["floating", "dense", "outdoor", "mix"])
 def test_new_configs_give_the_same_bytes_with_two_workers_and_verify(small_configs, name,
                                                                      tmp_path):
     from synth.dataset.config.parse import load_config as load
@@ -170,15 +176,16 @@ def test_new_configs_give_the_same_bytes_with_two_workers_and_verify(small_confi
 
 @pytest.mark.gl
 @pytest.mark.slow
-def test_floating_resumes_after_sigkill_with_the_same_bytes(small_configs, tmp_path):
+@pytest.mark.parametrize("name", ["floating", "mix"])
+def test_new_configs_resume_after_sigkill_with_the_same_bytes(small_configs, name, tmp_path):
     from synth.dataset.config.parse import load_config as load
 
-    cfg = load(small_configs["floating"])
+    cfg = load(small_configs[name])
     reference = tmp_path / "ref"
     run_dataset(cfg, out=reference, workers=1, progress=False)
     out = tmp_path / "killed"
     cli = [sys.executable, "-c", "from synth.cli import main; main()"]
-    proc = subprocess.Popen(cli + ["dataset", str(small_configs["floating"]), "--out", str(out)],
+    proc = subprocess.Popen(cli + ["dataset", str(small_configs[name]), "--out", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 120
@@ -367,3 +374,60 @@ def test_a_folder_of_meshes_is_an_occluder_kind(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(ConfigError, match="occluder_mesh.*holds no mesh file"):
         loads_config(text.replace(str(tmp_path / "meshes"), str(tmp_path / "empty")))
+
+
+# --------------------------------------------------------------------------- mix
+def test_a_mix_draws_each_sample_from_one_part_as_that_part_does():
+    import dataclasses as dc
+
+    mix = load_config("mix")
+    assert [p.name for p in mix.parts] == ["floating", "dense", "outdoor"]
+    picked = [draw_sample(mix, i).params["mix.part"] for i in range(60)]
+    counts = {name: picked.count(name) for name in ("floating", "dense", "outdoor")}
+    assert all(8 <= n <= 32 for n in counts.values()), counts  # about a third each
+    for i in range(6):
+        draw = draw_sample(mix, i)
+        part = next(p for p in mix.parts if p.name == draw.params["mix.part"])
+        alone = draw_sample(dc.replace(part, seed=mix.seed, redraw=mix.redraw), i)
+        assert draw.scene == alone.scene and draw.rig == alone.rig
+        assert {k: v for k, v in draw.params.items() if k != "mix.part"} == alone.params
+
+
+def test_a_mix_is_refused_with_tables_nesting_or_two_sizes(tmp_path):
+    with pytest.raises(ConfigError, match="no table beside mix"):
+        loads_config('mix = ["floating"]\n[scene]\nbase = "boxes"\n')
+    (tmp_path / "m.toml").write_text('mix = ["floating"]\n')
+    with pytest.raises(ConfigError, match="is a mix itself"):
+        loads_config(f'mix = ["{tmp_path / "m.toml"}"]', source=str(tmp_path / "n.toml"))
+    with pytest.raises(ConfigError, match="one image size, got 640x480, 960x540"):
+        loads_config('mix = ["flying", "floating"]')
+    with pytest.raises(ConfigError, match="non-empty array"):
+        loads_config("mix = []")
+    # --size renders every part at the size asked
+    assert {(p.rig.width, p.rig.height) for p in resized(load_config("mix"), 96, 54).parts} == {
+        (96, 54)}
+
+
+def test_outdoor_things_stand_on_the_ground_and_nothing_leaves_near_far():
+    import trimesh
+
+    from scenes.layouts import outdoor
+
+    for seed in range(4):
+        spec = outdoor(seed)
+        standing = [o for o in spec.objects if o.kind in ("tree", "bush", "rock")]
+        assert len(standing) >= 22
+        meshes = dict(zip((o.name for o in spec.objects), scenes.build_meshes(spec)))
+        ground = meshes["ground"]
+        ground = trimesh.Trimesh(ground.vertices, ground.faces, process=False)
+        origins = np.array([[o.pose.translation[0], -100.0, o.pose.translation[2]]
+                            for o in standing])
+        hits, rays, _ = ground.ray.intersects_location(
+            origins, np.tile([0.0, 1.0, 0.0], (len(standing), 1)), multiple_hits=False)
+        below = dict(zip(rays, hits[:, 1]))  # the ground's y under each (y down)
+        assert len(below) == len(standing)
+        for r, o in enumerate(standing):
+            lowest = meshes[o.name].vertices[:, 1].max()
+            assert lowest >= below[r] - 0.01, f"{o.name} floats {below[r] - lowest:.3f} m above"
+        zs = np.concatenate([m.vertices[:, 2] for m in meshes.values()])
+        assert 0.1 < zs.min() and zs.max() < 100.0

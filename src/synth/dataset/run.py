@@ -47,7 +47,7 @@ from pathlib import Path
 
 from synth._util.json_records import json_bytes, read_json_object
 from stereoforge.errors import DatasetError, ParameterError
-from synth.dataset.config.rig_draws import extreme_rigs
+from synth.dataset.config.rig_draws import config_rigs
 from synth.dataset.storage.commit import commit_files, commit_returned
 from synth.dataset.config.parse import DatasetConfig, config_from_dict, load_config
 from synth.dataset.engine.tasks import check_engine, run_tasks
@@ -294,9 +294,10 @@ def run_dataset(
     shard_size = check_shard_option(fmt, shard_size)
     disp_encoding = check_disp_encoding(fmt, disp_encoding)
     layout = get_layout(fmt)  # what the layout cannot hold is refused before any work
-    layout.check_config(flow=cfg.rig.errors is not None, ground_truth=tuple(cfg.ground_truth or ()),
+    layout.check_config(flow=any(r.errors is not None for r in config_rigs(cfg)),
+                        ground_truth=tuple(cfg.ground_truth or ()),
                         source=str(cfg.source), image_deflate=cfg.image_deflate)
-    for rig in extreme_rigs(cfg.rig, cfg.rig_draws, fy_follows=cfg.rig.fy == cfg.rig.fx):
+    for rig in config_rigs(cfg):  # at the extremes of drawn rigs, of every part of a mix
         layout.check_rig(rig, source=str(cfg.source))
     if shard_size is not None and not is_local(out):
         raise ParameterError(f"{out}: --format webdataset packs its shards in a local folder; "

@@ -137,7 +137,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = list(sys.argv[1:] if argv is None else argv)
     out = Path(args[0] if args else "docs/img")
     print(family_sheet(out / "families.jpg"))
-    print(config_sheet(out / "configs.jpg", ["flying", "middlebury-like", "floating", "dense"]))
+    print(config_sheet(out / "configs.jpg", ["flying", "middlebury-like", "floating", "dense",
+                                             "outdoor"]))
 
 
 if __name__ == "__main__":  # pragma: no cover

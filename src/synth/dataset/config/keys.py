@@ -59,6 +59,9 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "seed": Key("int", 0, lo=0, hi=MAX_SEED - 1, doc="dataset seed"),
         "count": Key("int", 10, lo=1, hi=999_999, doc="number of samples"),
         "preview": Key("bool", False, doc="also write preview.png per sample"),
+        "mix": Key("str", None, array=True,
+                   doc="a mix: configuration names, .toml paths or tables, each sample drawn "
+                       "from one (synth.dataset.config.mix); no [rig], [scene], [photometric]"),
         "redraw": Key("int", None, lo=0, hi=32,
                       doc="draw a sample again (its next sub-seed), at most this many times, "
                           "while its frame teaches nothing: over 95 % of pixels without ground "
@@ -173,4 +176,4 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
 
 #: Shipped example configurations (``src/synth/dataset/configs/<name>.toml``).
 EXAMPLES = ("planes", "texture-sweep", "flying", "imperfect-rig", "middlebury-like", "floating",
-            "dense")
+            "dense", "outdoor", "mix")

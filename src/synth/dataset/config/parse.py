@@ -41,6 +41,7 @@ from synth.dataset.config.keys import (
 )
 from synth.camera.rig import StereoRig
 from synth.dataset.config.dists import Dist
+from synth.dataset.config.mix import load_parts
 from synth.dataset.config.rig_draws import RIG_DRAW_KEYS, nominal
 
 __all__ = [
@@ -76,6 +77,9 @@ class DatasetConfig:
         The ``[rig]`` keys drawn per sample (``baseline``, ``fx``; empty: one rig for all).
     redraw : int or None
         How many times a frame that teaches nothing is drawn again (``synth.dataset.sample``).
+    parts : tuple of DatasetConfig
+        A mix's parts (:mod:`synth.dataset.config.mix`; empty: no mix). A mix's ``rig`` is its
+        first part's, its ``scene`` and ``photometric`` are empty.
     ground_truth : tuple of str
         Optional ground truth written with each sample (``synth.write.extra_ground_truth.GROUND_TRUTH``;
         empty by default).
@@ -106,9 +110,17 @@ class DatasetConfig:
     image_deflate: str | None = None
     rig_draws: Mapping[str, Dist] = field(default_factory=lambda: MappingProxyType({}))
     redraw: int | None = None
+    parts: tuple[DatasetConfig, ...] = ()
 
     def to_dict(self, *, with_count: bool = True) -> dict[str, Any]:
         """Canonical plain dict (the TOML structure, defaults filled in)."""
+        if self.parts:  # a mix: its parts inline, no tables of its own
+            out = {"name": self.name, "seed": self.seed, "preview": self.preview,
+                   "mix": [p.to_dict(with_count=False) for p in self.parts]}
+            out.update({k: v for k, v in (("ground_truth", list(self.ground_truth)),
+                                          ("image_deflate", self.image_deflate),
+                                          ("redraw", self.redraw)) if v})
+            return {**out, "count": self.count} if with_count else out
         rig = {k: v for k, v in self.rig.to_dict().items() if k in IDEAL_RIG_KEYS}
         rig.update(_camera_keys(self.rig))
         if self.rig_draws:  # drawn per sample (rig_draws); absent: the hash is unchanged
@@ -255,6 +267,21 @@ class _Parser:
                                 "image file or a folder of them)", repr(value),
                                 fix=str(exc)) from None
 
+    def mix(self, data: Mapping[str, Any], top: Mapping[str, Any], name: str) -> DatasetConfig:
+        """A mix of configurations (:mod:`synth.dataset.config.mix`): its parts, its top level."""
+        own = [t for t in SCHEMA if t and t in data]
+        if own:
+            raise self.fail("", own[0], "no table beside mix", f"[{own[0]}]",
+                            fix="a mix draws its rig, scenes and photometry from its parts: "
+                                "put the table in a part")
+        parts = load_parts(data["mix"], self.source, load=load_config, from_dict=config_from_dict)
+        return DatasetConfig(
+            name=name, seed=top.get("seed", 0), count=top.get("count", 10),
+            preview=top.get("preview", False), rig=parts[0].rig, scene=MappingProxyType({}),
+            photometric=MappingProxyType({}), source=self.source,
+            ground_truth=tuple(k for k in GROUND_TRUTH_KINDS if k in (top.get("ground_truth") or ())),
+            image_deflate=top.get("image_deflate"), redraw=top.get("redraw"), parts=parts)
+
     def parse(self, data: Mapping[str, Any]) -> DatasetConfig:
         if not isinstance(data, Mapping):
             raise ConfigError(f"{self.source}: a configuration is a table, got "
@@ -271,6 +298,8 @@ class _Parser:
             top["ground_truth"] = self.toml.check(SCHEMA[""]["ground_truth"],
                                                   data["ground_truth"], ("ground_truth",))
         name = top.get("name", Path(self.source).stem if self.source != "<string>" else "dataset")
+        if "mix" in data:
+            return self.mix(data, top, name)
         raw_rig = self.section(data.get("rig", {}), "rig")
         rig_draws = {k: self.dist("rig", k, raw_rig[k]) for k in RIG_DRAW_KEYS
                      if isinstance(raw_rig.get(k), dict)}
@@ -409,7 +438,7 @@ def list_examples() -> list[str]:
 
     Examples
     --------
-    >>> list_examples()
+    >>> list_examples()[:5]
     ['planes', 'texture-sweep', 'flying', 'imperfect-rig', 'middlebury-like']
     """
     return list(EXAMPLES)
@@ -452,6 +481,10 @@ def resized(config: DatasetConfig, width: int, height: int) -> DatasetConfig:
     >>> cfg.rig.width, cfg.rig.height, cfg.rig.fx
     (960, 540, 900.0)
     """
+    if config.parts:
+        data = config.to_dict()
+        data["mix"] = [resized(p, width, height).to_dict(with_count=False) for p in config.parts]
+        return config_from_dict(data, source=f"{config.source} at {width}x{height}")
     data = config.to_dict()
     scale = width / config.rig.width
     fx = config.rig_draws.get("fx")

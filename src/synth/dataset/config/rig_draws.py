@@ -23,7 +23,7 @@ import numpy as np
 
 from synth.camera.rig import StereoRig
 
-__all__ = ["RIG_DRAW_KEYS", "nominal", "draw_rig", "extreme_rigs", "STREAM_RIG"]
+__all__ = ["RIG_DRAW_KEYS", "nominal", "draw_rig", "extreme_rigs", "config_rigs", "STREAM_RIG"]
 
 #: The ``[rig]`` keys that may be distributions.
 RIG_DRAW_KEYS = ("baseline", "fx")
@@ -61,9 +61,8 @@ def draw_rig(rig: StereoRig, draws: Mapping[str, Any], seed: int, *, fy_follows:
     :data:`RIG_DRAW_KEYS` order) from stream :data:`STREAM_RIG`, and the drawn values."""
     if not draws:
         return rig, {}
-    from synth.dataset.config.sampling import stream
-
-    rng = stream(seed, STREAM_RIG)
+    # sampling.stream(seed, STREAM_RIG), the same generator
+    rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(STREAM_RIG,)))
     values = {k: float(draws[k].sample(rng)) for k in RIG_DRAW_KEYS if k in draws}
     return _with(rig, values, fy_follows), values
 
@@ -78,3 +77,10 @@ def extreme_rigs(rig: StereoRig, draws: Mapping[str, Any], *, fy_follows: bool
     ends = [(min(draws[k].args), max(draws[k].args)) for k in keys]
     return [_with(rig, dict(zip(keys, combo)), fy_follows)
             for combo in itertools.product(*ends)]
+
+
+def config_rigs(config: Any) -> list[StereoRig]:
+    """Every rig a configuration's samples may take at its extremes (of each part of a mix)."""
+    return [rig for part in (config.parts or (config,))
+            for rig in extreme_rigs(part.rig, part.rig_draws,
+                                    fy_follows=part.rig.fy == part.rig.fx)]

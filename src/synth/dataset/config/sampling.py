@@ -35,11 +35,12 @@ from scenes.assets import list_mesh_folder, load_mesh_file
 from scenes.materials import turn_lights
 from synth.camera.rig import StereoRig
 from synth.dataset.config.parse import PER_OBJECT_KEYS, DatasetConfig
+from synth.dataset.config.mix import STREAM_MIX
 from synth.dataset.config.rig_draws import draw_rig
 from synth.appearance.photometric import PhotometricParams
 from synth.appearance.texture_control import retexture
 
-__all__ = ["sample_seed", "redraw_seed", "stream", "SampleDraw", "draw_sample", "effective_frequency_px",
+__all__ = ["sample_seed", "redraw_seed", "pick_part", "stream", "SampleDraw", "draw_sample", "effective_frequency_px",
            "STREAM_PHOTOMETRIC", "STREAM_EXPOSURE_NOISE", "STREAM_LIGHTING_NOISE",
            "STREAM_TEXTURELESS"]
 
@@ -285,6 +286,15 @@ def _object_textures(scene: SceneSpec, config: DatasetConfig, fx: float,
     return dataclasses.replace(scene, objects=tuple(objects))
 
 
+def pick_part(config: DatasetConfig, index: int) -> tuple[int, DatasetConfig]:
+    """The part of a mix (:mod:`synth.dataset.config.mix`) sample ``index`` is drawn from,
+    under the mix's seed and ``redraw``, and its number; ``(-1, config)`` when it is no mix."""
+    if not config.parts:
+        return -1, config
+    k = int(stream(sample_seed(config.seed, index), STREAM_MIX).integers(len(config.parts)))
+    return k, dataclasses.replace(config.parts[k], seed=config.seed, redraw=config.redraw)
+
+
 def redraw_seed(seed: int, attempt: int) -> int:
     """The seed of redraw ``attempt`` (>= 1) of a sample with seed ``seed`` (the configuration's
     ``redraw``): ``SeedSequence(seed, spawn_key=(9, attempt))``, an int in ``[0, 2**63)``.
@@ -314,6 +324,10 @@ def draw_sample(config: DatasetConfig, index: int, *, attempt: int = 0) -> Sampl
     >>> d == draw_sample(cfg, 3), 0.05 <= d.params["scene.frequency_px"] <= 0.1
     (True, True)
     """
+    if config.parts:  # a mix: the part's sample, under the mix's seed
+        _, part = pick_part(config, index)
+        draw = draw_sample(part, index, attempt=attempt)
+        return dataclasses.replace(draw, params={**draw.params, "mix.part": part.name})
     seed = sample_seed(config.seed, index)
     if attempt:
         seed = redraw_seed(seed, attempt)

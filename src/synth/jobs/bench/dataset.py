@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from matcher.io import DEFLATE, check_deflate
 from synth.dataset.config.parse import resized
-from synth.dataset.config.rig_draws import extreme_rigs
+from synth.dataset.config.rig_draws import config_rigs
 from synth.formats import DEFAULT_FORMAT, get_layout
 
 if TYPE_CHECKING:
@@ -158,11 +158,10 @@ def bench_dataset(
     for name in formats:  # what a layout cannot hold, before the first run
         layout = get_layout(name)
         for cfg in loaded:
-            layout.check_config(flow=cfg.rig.errors is not None,
+            layout.check_config(flow=any(r.errors is not None for r in config_rigs(cfg)),
                                 ground_truth=tuple(cfg.ground_truth or ()), source=str(cfg.source),
                                 image_deflate=cfg.image_deflate)
-            for rig in extreme_rigs(cfg.rig, cfg.rig_draws,
-                                    fy_follows=cfg.rig.fy == cfg.rig.fx):
+            for rig in config_rigs(cfg):
                 layout.check_rig(rig, source=str(cfg.source))
     rows: list[dict] = []
     with contextlib.ExitStack() as cluster:
