@@ -8,7 +8,12 @@ import math
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from scenes.primitives import build_mesh
+from scenes.spec import DEFORM_LIMITS, FAMILY_KINDS, ObjectSpec, Pose, TextureSpec
+from scenes.strategies import sizes
 from scenes.families import (
     FAMILY_BUILDERS,
     FAMILY_SIZES,
@@ -319,3 +324,31 @@ def test_a_subdivided_box_bends_smoothly_and_stays_closed() -> None:
     # away from the box's edges neighbouring faces turn by little: the bend is smooth
     angles = np.degrees(trimesh.Trimesh(bent, f2, process=False).face_adjacency_angles)
     assert angles[angles < 45.0].max() < 10.0
+
+
+# --------------------------------------------------------------------------- through the spec
+@settings(deadline=None)
+@given(st.sampled_from(FAMILY_KINDS).flatmap(lambda kind: st.tuples(st.just(kind),
+                                                                    sizes(kind))),
+       st.tuples(st.floats(-DEFORM_LIMITS[0], DEFORM_LIMITS[0]),
+                 st.floats(-DEFORM_LIMITS[1], DEFORM_LIMITS[1]),
+                 st.floats(-DEFORM_LIMITS[2], DEFORM_LIMITS[2])),
+       st.integers(3, 4096), st.integers(0, 2**63 - 1))
+def test_any_family_object_builds_a_finite_bounded_mesh(kind_size, deform, segments, seed):
+    """Every size the spec accepts, any deformation within its bounds, any tessellation and
+    seed: finite vertices within the object's reach, valid faces, unit normals, finite UVs."""
+    kind, size = kind_size
+    obj = ObjectSpec(kind, Pose(), size, TextureSpec(frequency=1.0 / max(size)),
+                     segments=segments, seed=seed, deform=deform)
+    mesh = build_mesh(obj)
+    v = np.asarray(mesh.vertices)
+    assert np.isfinite(v).all() and len(mesh.faces) > 0
+    assert int(np.asarray(mesh.faces).max()) < len(v)
+    # within sum(size) of the origin (a torus: radius + tube); a taper widens by at most
+    # 1 + |taper|, a twist keeps the distance to the axis, a bend keeps the arc length |y|
+    # and each slice's offset r: at most |y| + r <= sqrt(2) |p|
+    reach = sum(size) * (1 + abs(deform[2])) * (math.sqrt(2) if deform[1] else 1)
+    assert np.linalg.norm(v, axis=1).max() <= reach * (1 + 1e-9)
+    n = np.linalg.norm(np.asarray(mesh.vertex_normals), axis=1)
+    assert np.all((np.abs(n - 1) < 1e-6) | (n == 0))
+    assert np.isfinite(np.asarray(mesh.visual.uv)).all()
