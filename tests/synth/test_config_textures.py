@@ -89,8 +89,8 @@ def test_mesh_occluders_are_centred_and_scaled(tmp_path) -> None:
     ("[scene]\noccluders = 1\noccluder_kind = 'mesh'\n",
      r"scene\.occluder_kind: expected occluder_mesh beside a 'mesh' choice"),
     ("[scene]\noccluder_kind = 'mesh'\noccluder_mesh = 'nowhere/x.obj'\n",
-     r"<string>:3: scene\.occluder_mesh: expected a mesh file trimesh loads, got "
-     r"'nowhere/x\.obj'; mesh file 'nowhere/x\.obj' does not exist"),
+     r"<string>:3: scene\.occluder_mesh: expected a mesh file trimesh loads, or a folder of "
+     r"them, got 'nowhere/x\.obj'; mesh file 'nowhere/x\.obj' does not exist"),
 ])
 def test_bad_mesh_occluders_name_the_problem(text: str, pattern: str) -> None:
     with pytest.raises(ConfigError, match=pattern):

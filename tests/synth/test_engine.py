@@ -202,7 +202,8 @@ def test_ray_engine_writes_the_same_bytes_as_local(tmp_path, renderer, require_o
         # a failing sample comes back as the SampleError naming it (far = 5 m < flying's wall)
         bad = loads_config("seed = 2\ncount = 4\n[rig]\nwidth = 32\nheight = 24\n"
                            "far = 5.0\n[scene]\nbase = 'flying'\n")
-        with pytest.raises(SampleError, match=r"sample \d \(seed \d+\) failed: ValueError"):
+        with pytest.raises(SampleError,
+                           match=r"sample \d \(seed \d+\) failed: DepthRangeError: object"):
             run_dataset(bad, out=tmp_path / "bad", workers=2, engine="ray", progress=False)
         assert not list((tmp_path / "bad").glob("MiddEval3/trainingF/*"))
         assert not [p for p in (tmp_path / "bad").iterdir() if ".tmp-" in p.name]
