@@ -33,3 +33,29 @@ def tiny_suite(request) -> Iterator[None]:
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(axes.SUITES, "quick", request.module.TINY)
         yield
+
+
+def _sigkill_after_records(proc, out, records: int = 1, *, timeout: float = 120.0) -> None:
+    """SIGKILL ``proc`` (a dataset run writing into ``out``) once ``records`` samples have
+    their completion record (``out/records/*.json``); kill it anyway if the test fails first."""
+    import signal
+    import time
+
+    try:
+        deadline = time.monotonic() + timeout
+        while len(list((out / "records").glob("*.json")) if (out / "records").is_dir()
+                   else []) < records:
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.005)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+@pytest.fixture
+def sigkill_after_records():
+    """:func:`_sigkill_after_records`: kill a dataset run mid-way, its first records written."""
+    return _sigkill_after_records

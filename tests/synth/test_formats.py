@@ -5,12 +5,9 @@ train's sources, --compare across layouts) taking every layout."""
 
 from __future__ import annotations
 
-import os
-import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -290,7 +287,7 @@ run_dataset(load_config(sys.argv[1]), out=sys.argv[2], fmt=sys.argv[3], progress
 @pytest.mark.gl
 @pytest.mark.slow
 @pytest.mark.parametrize("fmt", NEW)
-def test_killed_and_resumed_gives_the_uninterrupted_bytes(fmt, tmp_path):
+def test_killed_and_resumed_gives_the_uninterrupted_bytes(fmt, tmp_path, sigkill_after_records):
     config = tmp_path / "cfg.toml"
     config.write_text(CONFIG.format(count=12, rig=""))
     reference = tmp_path / "ref"
@@ -300,18 +297,7 @@ def test_killed_and_resumed_gives_the_uninterrupted_bytes(fmt, tmp_path):
     out = tmp_path / "ds"
     proc = subprocess.Popen([sys.executable, str(script), str(config), str(out), fmt],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 60
-        while len(list((out / "records").glob("*.json")) if (out / "records").is_dir()
-                   else []) < 3:
-            assert proc.poll() is None and time.monotonic() < deadline
-            time.sleep(0.005)
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    sigkill_after_records(proc, out, 3, timeout=60)
     assert proc.returncode != 0
     run = run_dataset(_config(count=12, source=str(config)), out=out, fmt=fmt, progress=False)
     assert run.skipped >= 3 and run.rendered + run.skipped == 12

@@ -4,11 +4,8 @@ configurations (determinism across workers, resume, verify) and the room layout.
 from __future__ import annotations
 
 import dataclasses
-import os
-import signal
 import subprocess
 import sys
-import time
 from importlib import resources
 from pathlib import Path
 
@@ -177,7 +174,8 @@ def test_new_configs_give_the_same_bytes_with_two_workers_and_verify(small_confi
 @pytest.mark.gl
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["floating", "mix"])
-def test_new_configs_resume_after_sigkill_with_the_same_bytes(small_configs, name, tmp_path):
+def test_new_configs_resume_after_sigkill_with_the_same_bytes(small_configs, name, tmp_path,
+                                                              sigkill_after_records):
     from synth.dataset.config.parse import load_config as load
 
     cfg = load(small_configs[name])
@@ -187,17 +185,8 @@ def test_new_configs_resume_after_sigkill_with_the_same_bytes(small_configs, nam
     cli = [sys.executable, "-c", "from synth.cli import main; main()"]
     proc = subprocess.Popen(cli + ["dataset", str(small_configs[name]), "--out", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 120
-        while not list((out / "records").glob("*.json")) if (out / "records").exists() else True:
-            assert proc.poll() is None and time.monotonic() < deadline
-            time.sleep(0.01)
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    sigkill_after_records(proc, out, 1)
+    assert proc.returncode != 0
     run = run_dataset(cfg, out=out, workers=1, progress=False)
     assert run.skipped >= 1 and run.rendered >= 1 and run.rendered + run.skipped == 4
     differences = compare_datasets(reference, out)
