@@ -18,6 +18,7 @@ from scenes.serialize import (
     scene_from_dict,
     scene_to_dict,
 )
+from scenes.skyspec import SkySpec
 from scenes.textures import make_texture
 
 __all__ = [
@@ -26,6 +27,7 @@ __all__ = [
     "TextureSpec",
     "Pose",
     "LightSpec",
+    "SkySpec",
     "MaterialSpec",
     "LampSpec",
     "LAMP_KINDS",

@@ -14,9 +14,9 @@ keys; the layout is the seed's, the rest is data in the config.
   puts in front of it (``dense``: up to 200 objects at 5-50 m).
 - :func:`outdoor`: rolling ground (a terrain 120 x 94 m, relief 0.5-3 m) under the cameras at
   1.2-2.5 m, 6-25 trees, 6-30 bushes and 10-40 rocks standing on it at 3-60 m (each at the
-  ground's height where it stands, sunk in by 5 % of its height, rocks by half), and a
-  distant backdrop at 95 m: a
-  low-contrast bluish noise wall where a sky would be (a sky at infinity is not drawn yet).
+  ground's height where it stands, sunk in by 5 % of its height, rocks by half), under a sky
+  at infinity (:mod:`scenes.sky`: clear to overcast, blue to grey, hazy land below the
+  horizon beyond the terrain; disparity 0 there).
 
 Textures are noise at about 8 pixels per period at each object's depth, as the other presets;
 a config's ``object_*`` keys redraw them per object (photographs, frequencies, contrast).
@@ -27,14 +27,13 @@ from __future__ import annotations
 import numpy as np
 
 from scenes.primitives import terrain_heights
+from scenes.sky import SkySpec
 from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
 
-__all__ = ["room", "backdrop", "outdoor", "BACKDROP_DEPTH", "HORIZON_DEPTH"]
+__all__ = ["room", "backdrop", "outdoor", "BACKDROP_DEPTH", "outdoor_sky"]
 
 #: Depth of :func:`backdrop`'s wall, metres.
 BACKDROP_DEPTH = 60.0
-#: Depth of :func:`outdoor`'s distant backdrop, metres (inside the default far plane, 100 m).
-HORIZON_DEPTH = 95.0
 _FOCAL, _BASELINE, _MARGIN = 600.0, 0.1, 1.4  # the default rig the presets are framed for
 _PERIOD_PX = 8.0
 _SINK = 0.05  # how far what stands on the ground is sunk into it, a fraction of its height
@@ -183,33 +182,49 @@ def _ground_y(ground: tuple[np.ndarray, np.ndarray, np.ndarray], x: float, z: fl
     return float(top * (1 - tz) + bottom * tz)
 
 
+def outdoor_sky(rng: np.random.Generator) -> SkySpec:
+    """A day sky: clear blue to overcast grey (cloud cover U[0, 1]; the greyer the more
+    overcast), a paler horizon, hazy green-grey to brown-grey land below it.
+
+    Examples
+    --------
+    >>> outdoor_sky(np.random.default_rng(0)) == outdoor_sky(np.random.default_rng(0))
+    True
+    """
+    clouds = float(rng.uniform(0.0, 1.0))
+    blue = np.array([rng.uniform(0.2, 0.45), rng.uniform(0.4, 0.65), rng.uniform(0.75, 0.95)])
+    grey = np.full(3, rng.uniform(0.55, 0.8))
+    zenith = blue + (grey - blue) * clouds ** 2
+    horizon = zenith + (np.minimum(zenith + 0.25, 1.0) - zenith) * rng.uniform(0.4, 1.0)
+    land = np.array([rng.uniform(0.35, 0.55), rng.uniform(0.4, 0.6), rng.uniform(0.3, 0.5)])
+    ground = land + (horizon - land) * rng.uniform(0.3, 0.7)  # haze toward the horizon
+    cloud = np.full(3, rng.uniform(0.8, 1.0)) - rng.uniform(0.0, 0.3) * clouds
+    return SkySpec(zenith=tuple(_r4(c) for c in zenith), horizon=tuple(_r4(c) for c in horizon),
+                   ground=tuple(_r4(c) for c in ground), clouds=_r4(clouds),
+                   cloud_colour=tuple(_r4(c) for c in np.clip(cloud, 0.0, 1.0)),
+                   cloud_scale=_r4(rng.uniform(0.2, 1.0)), seed=int(rng.integers(0, 2**63)))
+
+
 def outdoor(seed: int) -> SceneSpec:
-    """Ground, trees, bushes and rocks at 3-60 m, a distant backdrop (see the module docstring).
+    """Ground, trees, bushes and rocks at 3-60 m under a sky (see the module docstring).
 
     Examples
     --------
     >>> spec = outdoor(0)
-    >>> spec.objects[0].kind, spec.objects[1].name
-    ('terrain', 'horizon')
+    >>> spec.objects[0].kind, spec.sky is not None
+    ('terrain', True)
     >>> outdoor(0) == outdoor(0) != outdoor(1)
     True
     """
     rng = np.random.default_rng(seed)
     eye = rng.uniform(1.2, 2.5)
-    # from 0.3 m ahead (nothing behind the cameras) to 94.3 m, before the backdrop at 95 m
+    # from 0.3 m ahead (nothing behind the cameras) to 94.3 m, inside the default far plane
     terrain = ObjectSpec("terrain", Pose(translation=(_BASELINE / 2, _r4(eye), 47.3)),
                          (120.0, 94.0, _r4(rng.uniform(0.5, 3.0))), _texture(rng, 20.0),
                          name="ground", segments=96, seed=int(rng.integers(0, 2**63)))
-    half_w, half_h = 320 / _FOCAL * HORIZON_DEPTH, 240 / _FOCAL * HORIZON_DEPTH
-    sky = TextureSpec(kind="noise", frequency=_r4(rng.uniform(0.02, 0.1)),
-                      contrast=_r4(rng.uniform(0.1, 0.35)), mean=_r4(rng.uniform(0.55, 0.85)),
-                      color=(_r4(rng.uniform(0.6, 0.8)), _r4(rng.uniform(0.75, 0.9)), 1.0),
-                      seed=int(rng.integers(0, 2**31)))
-    horizon = ObjectSpec("plane", Pose(translation=(_BASELINE / 2, 0.0, HORIZON_DEPTH)),
-                         (_r4(_MARGIN * (2 * half_w + _BASELINE)), _r4(_MARGIN * 2 * half_h)),
-                         sky, name="horizon")
+    sky = outdoor_sky(rng)
     ground = _ground(terrain)
-    objects = [terrain, horizon]
+    objects = [terrain]
     kinds = [("tree", int(rng.integers(6, 26))), ("bush", int(rng.integers(6, 31))),
              ("rock", int(rng.integers(10, 41)))]
     for kind, count in kinds:
@@ -234,5 +249,5 @@ def outdoor(seed: int) -> SceneSpec:
                                       seed=int(rng.integers(0, 2**63))))
     light = LightSpec(direction=(_r4(rng.uniform(-0.6, 0.6)), 1.0, _r4(rng.uniform(0.2, 1.0))),
                       intensity=0.85, ambient=0.3)
-    return SceneSpec("outdoor", tuple(objects), light=light, seed=seed,
-                     description="ground, trees, bushes and rocks at 3-60 m, a distant backdrop")
+    return SceneSpec("outdoor", tuple(objects), light=light, seed=seed, sky=sky,
+                     description="ground, trees, bushes and rocks at 3-60 m under a sky")

@@ -4,8 +4,8 @@
 round-trip form) and sequences come back as tuples. On disk a scene is a table with the keys
 ``version`` (currently 1), ``name``, ``description``, ``seed``, ``background``, ``light`` (a
 table), ``objects`` (an array of tables, each with a ``pose``, a ``texture`` and optionally a
-``material`` table) and optionally ``lamps`` (an array of tables; see :mod:`scenes.materials`).
-Missing keys take the dataclass defaults; unknown keys are an error naming the key, where it is
+``material`` table) and optionally ``lamps`` (an array of tables; see :mod:`scenes.materials`)
+and ``sky`` (a table: :mod:`scenes.sky`). Missing keys take the dataclass defaults; unknown keys are an error naming the key, where it is
 and the valid keys. The dataclasses' own fields drive both directions.
 """
 
@@ -20,6 +20,7 @@ from typing import Any
 import tomli_w
 
 from scenes.materials import LampSpec, MaterialSpec
+from scenes.skyspec import SkySpec
 from scenes.spec import LightSpec, ObjectSpec, Pose, SceneSpec, TextureSpec
 from stereoforge.errors import SceneError, StereoforgeError
 from stereoforge.validation import check_keys, check_text, check_type, fail
@@ -32,7 +33,8 @@ _FORMAT_VERSION = 1
 # --------------------------------------------------------------------------- dict conversion
 #: Fields written only when they differ from their default, so that the scene files (and the
 #: ``scene.json`` of every pair) of scenes that do not use them keep their bytes.
-_WRITTEN_IF_SET = {(ObjectSpec, "material"): MaterialSpec(), (SceneSpec, "lamps"): ()}
+_WRITTEN_IF_SET = {(ObjectSpec, "material"): MaterialSpec(), (SceneSpec, "lamps"): (),
+                   (SceneSpec, "sky"): None}
 
 
 def _to_plain(value: Any) -> Any:
@@ -129,6 +131,8 @@ def scene_from_dict(data: dict[str, Any]) -> SceneSpec:
                                expected="an array of tables")
         top["lamps"] = tuple(_build(LampSpec, _take(raw, LampSpec, f"lamps[{i}]"), f"lamps[{i}]")
                              for i, raw in enumerate(raw_lamps))
+    if "sky" in top:
+        top["sky"] = _build(SkySpec, _take(top["sky"], SkySpec, "scene.sky"), "scene.sky")
     return _build(SceneSpec, top, "scene")
 
 

@@ -8,8 +8,8 @@ and sequences come back as tuples.
 On disk a scene is a table with the keys ``version`` (currently 1), ``name``, ``description``,
 ``seed``, ``background``, ``light`` (a table), ``objects`` (an array of tables, each with a
 ``pose``, a ``texture`` and optionally a ``material`` table) and optionally ``lamps`` (an array of
-tables; see :mod:`scenes.materials`). Missing keys take the dataclass defaults; unknown keys are an
-error.
+tables; see :mod:`scenes.materials`) and ``sky`` (a table: :mod:`scenes.sky`). Missing keys take
+the dataclass defaults; unknown keys are an error.
 
 The conversion to and from plain dicts, TOML, JSON and files is :mod:`scenes.serialize`: it
 reads the fields of these dataclasses (``dataclasses.fields``), so a new field is written and
@@ -32,6 +32,7 @@ from scenes.families import (
     family_size_problem,
 )
 from scenes.materials import MAX_LAMPS, LampSpec, MaterialSpec
+from scenes.skyspec import SkySpec
 from stereoforge.validation import (
     check_choice,
     check_int,
@@ -441,6 +442,9 @@ class SceneSpec:
         Lights added to ``light`` (at most ``MAX_LAMPS``; default none). A scene with lamps or a
         specular material is rendered lit (:mod:`scenes.materials`). Written to a scene file
         only when not empty.
+    sky : SkySpec or None
+        A sky at infinity where no object is hit, in place of ``background`` (disparity 0
+        there: :mod:`scenes.sky`); written to a scene file only when set.
 
     Examples
     --------
@@ -458,9 +462,12 @@ class SceneSpec:
     seed: int = 0
     description: str = ""
     lamps: tuple[LampSpec, ...] = ()
+    sky: SkySpec | None = None
 
     def __post_init__(self) -> None:
         check_type(self.name, "SceneSpec.name", str)
+        if self.sky is not None:
+            check_type(self.sky, "SceneSpec.sky", SkySpec)
         lamps = check_sequence(self.lamps, "SceneSpec.lamps", of="LampSpec",
                                item=lambda lamp, name: check_type(lamp, name, LampSpec))
         if len(lamps) > MAX_LAMPS:

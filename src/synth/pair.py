@@ -1,7 +1,8 @@
 """Render a labelled stereo pair: images, exact disparities, occlusion mask.
 
 Disparities are ``fx * baseline / Z`` (float64, then float32) of the depth the
-renderer reads at each pixel centre; ``inf`` where no surface. The left mask
+renderer reads at each pixel centre; ``inf`` where no surface, and 0 (exact) where a scene's sky
+at infinity shows (:mod:`scenes.sky`; ``sky_left`` marks it). The left mask
 follows ``docs/conventions.md``: 255 visible in both views, 128 occluded in
 the right view or projecting outside it, 0 no ground truth.
 """
@@ -55,7 +56,8 @@ class StereoPair:
         RGB images.
     disp_left, disp_right : (H, W) float32 array
         Disparity in pixels of each view (left ``x`` matches right ``x - d``,
-        right ``x`` matches left ``x + d``); ``inf`` where no surface.
+        right ``x`` matches left ``x + d``); ``inf`` where no surface, 0 where the scene's sky
+        shows (``sky_left``).
     depth_left : (H, W) float32 array
         Depth ``Z`` (metres) of the left view; ``inf`` where no surface.
     mask_left : (H, W) uint8 array
@@ -75,6 +77,9 @@ class StereoPair:
         The right view at another exposure (Middlebury's ``im1E``; see :func:`expose`).
     right_lighting : (H, W, 3) uint8 array or None
         The right view rendered again under another light set (Middlebury's ``im1L``).
+    sky_left : (H, W) uint8 array or None
+        Scenes with a sky only: 255 where the left view's pixel centre sees the sky (depth
+        ``inf``, disparity 0), else 0 (``mask0sky.png``).
     flow_left : (H, W, 2) float32 array or None
         Only for a rig with camera ``errors``: the exact correspondence of the real images,
         left ``(x, y)`` -> right ``(x + u, y + v)``; NaN where no surface, occluded or outside
@@ -95,6 +100,7 @@ class StereoPair:
     highlight_right: np.ndarray | None = None
     right_exposure: np.ndarray | None = None
     right_lighting: np.ndarray | None = None
+    sky_left: np.ndarray | None = None
 
 
 def occlusion_mask(
@@ -189,8 +195,16 @@ def _disparity(fb: float, z: np.float32) -> float:  # pragma: no cover - compile
     return d if d > 0 else np.inf
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _view_disparity(fb: float, z: np.float32, sky: bool) -> float:  # pragma: no cover
+    """:func:`_disparity`, and 0 where the pixel sees nothing but the sky (``z = inf``)."""
+    if sky and z == np.inf:
+        return 0.0
+    return _disparity(fb, z)
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
-def _ground_truth_kernel(zl: np.ndarray, zr: np.ndarray, fb: float, lerp_tol: float,
+def _ground_truth_kernel(zl: np.ndarray, zr: np.ndarray, fb: float, sky: bool, lerp_tol: float,
                          edge_tol: float, disp_left: np.ndarray, disp_right: np.ndarray,
                          mask: np.ndarray) -> None:  # pragma: no cover - compiled
     """Both views' float64 disparities from their depths (stored as float32) and the left
@@ -199,16 +213,16 @@ def _ground_truth_kernel(zl: np.ndarray, zr: np.ndarray, fb: float, lerp_tol: fl
     dr_row = np.empty(w, np.float64)
     for i in range(h):
         for j in range(w):
-            dr_row[j] = _disparity(fb, zr[i, j])
+            dr_row[j] = _view_disparity(fb, zr[i, j], sky)
             disp_right[i, j] = np.float32(dr_row[j])
         for j in range(w):
-            d = _disparity(fb, zl[i, j])
+            d = _view_disparity(fb, zl[i, j], sky)
             disp_left[i, j] = np.float32(d)
             mask[i, j] = _mask_code(d, j, dr_row, lerp_tol, edge_tol)
 
 
-def ground_truth_from_depth(rig: StereoRig, depth_left: np.ndarray, depth_right: np.ndarray
-                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ground_truth_from_depth(rig: StereoRig, depth_left: np.ndarray, depth_right: np.ndarray,
+                            *, sky: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The ground truth of a pair from its two depth maps, in one pass.
 
     Parameters
@@ -216,6 +230,9 @@ def ground_truth_from_depth(rig: StereoRig, depth_left: np.ndarray, depth_right:
     rig : StereoRig
     depth_left, depth_right : (H, W) float32 array
         Camera-space ``Z`` of each view (``inf``: no surface).
+    sky : bool
+        The scene has a sky at infinity: ``Z = inf`` is then the sky, disparity 0 (a finite
+        ground truth, masked like any other), not "no ground truth".
 
     Returns
     -------
@@ -231,13 +248,17 @@ def ground_truth_from_depth(rig: StereoRig, depth_left: np.ndarray, depth_right:
     >>> dl, dr, mask = ground_truth_from_depth(rig, z, z)
     >>> dl.tolist(), mask.tolist()
     ([[inf, 1.0, 1.0, 1.0]], [[0, 128, 255, 255]])
+    >>> dl, dr, mask = ground_truth_from_depth(rig, z, z, sky=True)
+    >>> dl.tolist(), mask.tolist()
+    ([[0.0, 1.0, 1.0, 1.0]], [[255, 128, 255, 255]])
     """
     shape = depth_left.shape
     disp_left, disp_right = np.empty(shape, np.float32), np.empty(shape, np.float32)
     mask = np.empty(shape, np.uint8)
     _ground_truth_kernel(np.ascontiguousarray(depth_left, dtype=np.float32),
                          np.ascontiguousarray(depth_right, dtype=np.float32),
-                         float(rig.fx * rig.baseline), float(LERP_TOL), float(EDGE_TOL),
+                         float(rig.fx * rig.baseline), bool(sky), float(LERP_TOL),
+                         float(EDGE_TOL),
                          disp_left, disp_right, mask)
     return disp_left, disp_right, mask
 
@@ -347,7 +368,8 @@ def render_pair(
     relit = None
     if lighting is not None:
         relit = _readonly(renderer.render_view(lighting, ideal, eye="right").color)
-    d_left, d_right, mask = ground_truth_from_depth(rig, left.depth, right.depth)
+    sky = getattr(scene, "sky", None) is not None
+    d_left, d_right, mask = ground_truth_from_depth(rig, left.depth, right.depth, sky=sky)
     meta = {
         **scene_meta,
         "backend": renderer.backend,
@@ -379,4 +401,6 @@ def render_pair(
         right_exposure=None if exposure is None else _readonly(
             expose(right.color if real is None else real.right, exposure)),
         right_lighting=relit,
+        sky_left=_readonly(np.where(np.isinf(left.depth), 255, 0).astype(np.uint8)) if sky
+        else None,
     )

@@ -16,6 +16,8 @@ Middlebury 2014 / MiddEval3 (read and write; see ``docs/formats.md``), ``layout=
     mask0nocc.png        occlusion mask of the left view: 255 visible, 128 occluded, 0 no GT
     mask0spec.png        ours, written when given: specular highlights of the left view (255)
     mask1spec.png        ... and of the right view
+    mask0sky.png         ours, written when given: the left view's sky at infinity (255; its
+                         disparity is 0 in disp0GT.pfm)
     calib.txt            cam0, cam1, doffs, baseline (mm), width, height, ndisp, isint, vmin, vmax
 
 ``layout="2014"`` writes the same files with the ground truth under the names of the 2014 scene
@@ -330,6 +332,7 @@ def write_middlebury(
     right_lighting: np.ndarray | None = None,
     highlight_left: np.ndarray | None = None,
     highlight_right: np.ndarray | None = None,
+    sky_left: np.ndarray | None = None,
     layout: str = "middeval3",
     image_deflate: str | None = None,
 ) -> list[Path]:
@@ -367,6 +370,9 @@ def write_middlebury(
     highlight_left, highlight_right : (H, W) uint8 array, optional
         Specular-highlight masks (255 highlight, 0 not), written as ``mask0spec.png`` and
         ``mask1spec.png`` (both or neither).
+    sky_left : (H, W) uint8 array, optional
+        Where the left view sees a sky at infinity (255; disparity 0 there), written as
+        ``mask0sky.png``.
     layout : {"middeval3", "2014"}
         The ground truth's file names (:data:`GT_FILES`): MiddEval3's ``disp0GT.pfm``,
         ``disp1GT.pfm``, or the 2014 scene archives' ``disp0.pfm``, ``disp1.pfm``. Every other
@@ -381,7 +387,8 @@ def write_middlebury(
     -------
     list of pathlib.Path
         The files written, in the order ``im0.png, im1.png, im1E.png, im1L.png, disp0GT.pfm,
-        [disp1GT.pfm,] mask0nocc.png, [mask0spec.png, mask1spec.png,] calib.txt`` (``disp0.pfm``,
+        [disp1GT.pfm,] mask0nocc.png, [mask0spec.png, mask1spec.png,] [mask0sky.png,]
+        calib.txt`` (``disp0.pfm``,
         ``disp1.pfm`` with ``layout="2014"``).
 
     Examples
@@ -426,6 +433,7 @@ def write_middlebury(
     highlights = [] if highlight_left is None else [
         check_occlusion_mask(m, name, shape=shape)
         for name, m in (("highlight_left", highlight_left), ("highlight_right", highlight_right))]
+    sky = None if sky_left is None else check_occlusion_mask(sky_left, "sky_left", shape=shape)
 
     out = Path(out_dir)
     im1 = encode_png(right, deflate=image_deflate)
@@ -444,6 +452,8 @@ def write_middlebury(
     files[out / "mask0nocc.png"] = encode_png(mask_left)
     for name, m in zip(("mask0spec.png", "mask1spec.png"), highlights):
         files[out / name] = encode_png(m)
+    if sky is not None:
+        files[out / "mask0sky.png"] = encode_png(sky)
     files[out / "calib.txt"] = format_calib(full_calib).encode("ascii")
     out.mkdir(parents=True, exist_ok=True)
     return write_all_atomic(files, fsync=fsync)

@@ -75,16 +75,20 @@ def _textureless(scene: Any, config: DatasetConfig, draw: Any, renderer: Any
                              rig.width * rig.height, stream(draw.seed, STREAM_TEXTURELESS))
 
 
-#: A frame teaches nothing when more of its pixels than this have no ground truth ...
+#: A frame teaches nothing when more of its pixels than this have no ground truth or see the sky
+#: ...
 USELESS_INVALID_FRACTION = 0.95
 #: ... or its left image's mean grey level (0-255, all channels) is below this.
 USELESS_MEAN_GREY = 15.0
 
 
-def teaches_nothing(mask: np.ndarray, left: np.ndarray) -> str | None:
+def teaches_nothing(mask: np.ndarray, left: np.ndarray, sky: np.ndarray | None = None
+                    ) -> str | None:
     """Why a frame teaches nothing (``"no ground truth"``, ``"too dark"``), or None.
 
-    ``mask`` is the left occlusion mask (0: no ground truth), ``left`` the left image as written.
+    ``mask`` is the left occlusion mask (0: no ground truth), ``left`` the left image as written,
+    ``sky`` the left sky mask of a scene with a sky (255: sky; its disparity 0 is ground truth,
+    but a frame of nearly nothing else teaches nothing either).
 
     Examples
     --------
@@ -92,9 +96,15 @@ def teaches_nothing(mask: np.ndarray, left: np.ndarray) -> str | None:
     'no ground truth'
     >>> teaches_nothing(np.full((4, 4), 255, np.uint8), np.full((4, 4, 3), 9, np.uint8))
     'too dark'
+    >>> teaches_nothing(np.full((4, 4), 255, np.uint8), np.full((4, 4, 3), 99, np.uint8),
+    ...                 np.full((4, 4), 255, np.uint8))
+    'no ground truth or sky'
     """
     if np.count_nonzero(mask == 0) > USELESS_INVALID_FRACTION * mask.size:
         return "no ground truth"
+    if sky is not None and (np.count_nonzero((mask == 0) | (sky > 0))
+                            > USELESS_INVALID_FRACTION * mask.size):
+        return "no ground truth or sky"
     if float(np.mean(left)) < USELESS_MEAN_GREY:
         return "too dark"
     return None
@@ -164,7 +174,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
         lap("render")
         out = apply_photometric(pair.left, pair.right, draw.photometric,
                                 rng=stream(draw.seed, STREAM_PHOTOMETRIC))
-        useless = None if config.redraw is None else teaches_nothing(pair.mask_left, out.left)
+        useless = None if config.redraw is None else teaches_nothing(pair.mask_left, out.left,
+                                                                     pair.sky_left)
         if useless is None or attempt >= config.redraw:
             break
         rejected.append(useless)
@@ -201,6 +212,8 @@ def produce_sample(config: DatasetConfig, index: int, renderer: Any, dest: Path,
     }
     if textureless is not None:  # only then: other datasets keep their manifests' bytes
         stats["textureless_fraction"] = _r(textureless)
+    if pair.sky_left is not None:  # the same
+        stats["sky_fraction"] = _r(np.count_nonzero(pair.sky_left) / mask_size)
     if config.redraw is not None:  # the same
         stats["redraws"] = attempt
         stats["redrawn_for"] = rejected

@@ -40,7 +40,7 @@ from synth.formats.reading import (calib_from_rig, checked_sample,
                                    damage_as_format_error, fill_occlusion, rig_record)
 
 __all__ = ["JPEG_QUALITY", "Capacity", "Layout", "SceneRef", "ndisp_for", "spec_error",
-           "swap_folder", "write_tree"]
+           "swap_folder", "without_sky", "write_tree"]
 
 #: Quality of the JPEG images of the layouts that store JPEG (no chroma subsampling).
 JPEG_QUALITY = 95
@@ -378,3 +378,20 @@ def ndisp_for(disp: np.ndarray) -> int:
     finite = disp[np.isfinite(disp)]
     vmax = math.ceil(float(finite.max())) if finite.size else 0
     return 16 * math.ceil((vmax + 1) / 16)
+
+
+def without_sky(pair: Any) -> Any:
+    """``pair`` with its sky (disparity 0: :attr:`synth.pair.StereoPair.sky_left`) as no ground
+    truth: ``inf`` in both disparities, 0 in the left mask. For the layouts whose files cannot
+    hold a disparity of 0 (KITTI, CREStereo and FSD code 0 as "none"); a pair without a sky is
+    returned as it is."""
+    import dataclasses
+
+    sky = getattr(pair, "sky_left", None)
+    if sky is None:
+        return pair
+    # object disparities are fx * b / Z > 0 (Z <= far): 0 is the sky's alone, in either view
+    disp_left = np.where(pair.disp_left == 0, np.float32(np.inf), pair.disp_left)
+    disp_right = np.where(pair.disp_right == 0, np.float32(np.inf), pair.disp_right)
+    mask = np.where(sky > 0, np.uint8(0), pair.mask_left)
+    return dataclasses.replace(pair, disp_left=disp_left, disp_right=disp_right, mask_left=mask)

@@ -25,7 +25,7 @@ from typing import Any
 from matcher.io import (CRESTEREO_MAX, CRESTEREO_SCALE, StereoSample,
                         encode_crestereo_disparity, encode_jpeg, read_image,
                         read_crestereo_disparity)
-from synth.formats.base import JPEG_QUALITY, Capacity, Layout, write_tree
+from synth.formats.base import JPEG_QUALITY, Capacity, Layout, without_sky, write_tree
 from synth.formats.middlebury import calib_txt
 
 __all__ = ["CREStereoLayout", "LAYOUT", "SUBSETS"]
@@ -54,6 +54,7 @@ class CREStereoLayout(Layout):
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
                     fsync: bool, image_deflate: str | None = None) -> list[Path]:
         stem = self.key(index)
+        pair = without_sky(pair)  # CREStereo codes 0 as "no ground truth"
         data = (encode_jpeg(pair.left, quality=JPEG_QUALITY),
                 encode_jpeg(pair.right, quality=JPEG_QUALITY),
                 encode_crestereo_disparity(pair.disp_left),

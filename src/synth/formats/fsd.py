@@ -23,7 +23,8 @@ from typing import Any
 
 from matcher.io import (FSD_MAX, FSD_SCALE, StereoSample, encode_fsd_disparity,
                         encode_jpeg, read_fsd_disparity, read_image)
-from synth.formats.base import JPEG_QUALITY, Capacity, Layout, swap_folder, write_tree
+from synth.formats.base import (JPEG_QUALITY, Capacity, Layout, swap_folder, without_sky,
+                                write_tree)
 from synth.formats.middlebury import calib_txt
 
 __all__ = ["FSDLayout", "LAYOUT", "FRAMES_PER_SCENE"]
@@ -56,6 +57,7 @@ class FSDLayout(Layout):
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
                     fsync: bool, image_deflate: str | None = None) -> list[Path]:
         left = self.key(index)
+        pair = without_sky(pair)  # FSD codes 0 as "no ground truth"
         files = {left: encode_jpeg(pair.left, quality=JPEG_QUALITY),
                  swap_folder(left, "left", "right"): encode_jpeg(pair.right, quality=JPEG_QUALITY),
                  swap_folder(left, "rgb", "disparity").removesuffix(".jpg") + ".png":

@@ -21,7 +21,7 @@ import numpy as np
 from matcher.io import (KITTI_MAX_DISPARITY, StereoSample, format_kitti_calib, load_kitti_2015,
                         read_kitti_calib, write_kitti)
 from scenes import plane_equation
-from synth.formats.base import Capacity, Layout, SceneRef, spec_error
+from synth.formats.base import Capacity, Layout, SceneRef, spec_error, without_sky
 
 __all__ = ["KittiLayout", "LAYOUT", "KITTI_ROOT", "kitti_calib_for", "foreground_map"]
 
@@ -57,7 +57,8 @@ def foreground_map(pair: Any, scene: Any) -> np.ndarray:
     for obj in scene.objects:
         if obj.kind == "plane":
             n, c = plane_equation(obj)
-            on_plane = np.abs(disp - pair.rig.plane_disparity(n, c)) <= _ON_PLANE_PX
+            with np.errstate(invalid="ignore"):  # inf - inf where neither is there: not on it
+                on_plane = np.abs(disp - pair.rig.plane_disparity(n, c)) <= _ON_PLANE_PX
             background |= on_plane
     return np.where(background, 0, 1).astype(np.uint8)
 
@@ -116,6 +117,7 @@ class KittiLayout(Layout):
 
     def write_files(self, pair: Any, dest: Path, *, scene: Any, index: int, clean: Any,
                     fsync: bool, image_deflate: str | None = None) -> list[Path]:
+        pair = without_sky(pair)  # KITTI codes 0 as "no ground truth"
         return list(write_kitti(dest / KITTI_ROOT, index, left=pair.left, right=pair.right,
                                 disp_left=pair.disp_left, mask_left=pair.mask_left,
                                 obj_map=foreground_map(pair, scene), calib=kitti_calib_for(pair),

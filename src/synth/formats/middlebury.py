@@ -89,7 +89,7 @@ class MiddleburyLayout(Layout):
             disp_right=pair.disp_right, mask_left=pair.mask_left, calib=calib_for(pair),
             fsync=fsync, right_exposure=pair.right_exposure, right_lighting=pair.right_lighting,
             highlight_left=pair.highlight_left, highlight_right=pair.highlight_right,
-            layout=self.io_layout, image_deflate=image_deflate))
+            sky_left=getattr(pair, "sky_left", None), layout=self.io_layout, image_deflate=image_deflate))
         if pair.flow_left is not None:  # the real cameras' exact correspondence
             written.append(atomic_write_bytes(dest / "flow0.flo", encode_flo(pair.flow_left),
                                               fsync=fsync))

@@ -426,13 +426,21 @@ class Passes:
     def color(self, up: GLScene, pv: np.ndarray, background: Sequence[float], *,
               eye: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
         """(H, W, 3) uint8 colour, row 0 at the top (``eye``: world position, lit scenes)."""
+        out = self.color_rgba(up, pv, (*background, 1.0), eye=eye)
+        return cv2.cvtColor(out, cv2.COLOR_RGBA2RGB)
+
+    def color_rgba(self, up: GLScene, pv: np.ndarray, clear: Sequence[float], *,
+                   eye: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+        """(H, W, 4) uint8 colour and coverage over the RGBA ``clear`` value, row 0 at the top
+        (``clear`` = (0, 0, 0, 0): premultiplied by coverage, for :func:`~synth.render.sky.
+        over_sky`)."""
         from OpenGL import GL
 
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fb_msaa[0])
         GL.glViewport(0, 0, self.w, self.h)
         GL.glEnable(GL.GL_MULTISAMPLE)
         self.common_state()
-        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array([*background, 1.0], dtype=np.float32))
+        GL.glClearBufferfv(GL.GL_COLOR, 0, np.array(clear, dtype=np.float32))
         GL.glClearBufferfv(GL.GL_DEPTH, 0, np.array([1.0], dtype=np.float32))
         self._draw_meshes(up, pv, eye, 0)
         # same-size blit of a multisampled buffer = the average of each pixel's samples
@@ -446,7 +454,7 @@ class Passes:
         GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0)
         GL.glReadPixels(0, 0, self.w, self.h, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, out.ctypes.data)
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        return cv2.cvtColor(out, cv2.COLOR_RGBA2RGB)[::-1].copy()  # GL rows run bottom-up
+        return out[::-1].copy()  # GL rows run bottom-up
 
     def highlight(self, up: GLScene, pv: np.ndarray, eye: Sequence[float]) -> np.ndarray:
         """(H, W) float32 rise of the displayed value (grey levels, the largest channel) that the

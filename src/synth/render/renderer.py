@@ -40,11 +40,15 @@ from synth.render.context import open_context
 from synth.render.meshes import as_meshes, check_depth_range
 from synth.render.labels import LabelPass
 from synth.render.passes import GLScene, Passes
+from synth.render.sky import over_sky
 
 if TYPE_CHECKING:
     from synth.camera.rig import StereoRig
 
 __all__ = ["GLBackendError", "Renderer", "ViewRender", "ViewLabels", "BACKENDS", "resolve_backend"]
+
+#: Entries of an uploaded scene's metadata that only drawing reads (not the pair's metadata).
+_DRAWING_ONLY = frozenset({"background", "sky"})
 
 
 @dataclass(frozen=True)
@@ -277,7 +281,7 @@ class Renderer:
         self._check_open()
         key = id(scene)
         if key in self._held:
-            yield dict(self._held[key][1].meta)
+            yield {k: v for k, v in self._held[key][1].meta.items() if k not in _DRAWING_ONLY}
             return
         with self._timed("meshes", gl=False):
             meshes, background, meta = as_meshes(scene)
@@ -289,11 +293,12 @@ class Renderer:
             meta = {**meta, "specular": scene.has_specular()}
         self._context.make_current()
         with self._timed("upload"):
-            up = self._passes.upload(meshes, {**meta, "background": background},
+            up = self._passes.upload(meshes, {**meta, "background": background,
+                                              "sky": getattr(scene, "sky", None)},
                                      lighting=lighting)
         self._held[key] = (scene, up)  # keeps `scene` alive so its id is not reused
         try:
-            yield {k: v for k, v in up.meta.items() if k != "background"}
+            yield {k: v for k, v in up.meta.items() if k not in _DRAWING_ONLY}
         finally:
             del self._held[key]
             self._context.make_current()
@@ -364,8 +369,13 @@ class Renderer:
         pose = _camera_pose(rig, eye)
         pv = (_projection(rig) @ np.linalg.inv(pose)).astype(np.float32)
         position = pose[:3, 3]
+        sky = up.meta.get("sky")
         with self._timed("colour"):
-            color = self._passes.color(up, pv, up.meta["background"], eye=position)
+            if sky is None:
+                color = self._passes.color(up, pv, up.meta["background"], eye=position)
+            else:  # transparent where no surface, then over the sky at infinity
+                color = over_sky(self._passes.color_rgba(up, pv, (0.0, 0.0, 0.0, 0.0),
+                                                         eye=position), sky, rig)
         with self._timed("depth"):
             depth = self._passes.depth(up, pv, rig.far)
         highlight = None
