@@ -173,21 +173,88 @@ def texture_array(image: Any) -> np.ndarray:
 
 
 class DepthRangeError(ValueError):
-    """An object reaches behind the camera or outside the rig's ``[near, far]`` depths (a
-    ``ValueError``; a dataset with ``redraw`` draws such a sample again)."""
+    """An object seen by the rig reaches behind the camera or outside its ``[near, far]`` depths
+    (a ``ValueError``; a dataset with ``redraw`` draws such a sample again)."""
+
+
+def _frustum_planes(rig: StereoRig) -> list[tuple[np.ndarray, float]]:
+    """``(n, c)`` with ``n . X + c >= 0`` inside: the four side planes of each view's pyramid
+    through its pixels' outer edges (``-0.5`` to ``w - 0.5``, the same vertically), world frame."""
+    w, h, fx, fy, cx, cy = rig.width, rig.height, rig.fx, rig.fy, rig.cx, rig.cy
+    planes = []
+    for centre in (0.0, rig.baseline):  # left camera at the origin, right at (baseline, 0, 0)
+        for n in (np.array([fx, 0.0, cx + 0.5]), np.array([-fx, 0.0, w - 0.5 - cx]),
+                  np.array([0.0, fy, cy + 0.5]), np.array([0.0, -fy, h - 0.5 - cy])):
+            planes.append((n, -float(n[0]) * centre))
+    return planes
+
+
+def _clip(polygon: list[np.ndarray], n: np.ndarray, c: float) -> list[np.ndarray]:
+    """Sutherland-Hodgman: the part of a convex polygon with ``n . X + c >= 0``."""
+    out = []
+    for i, p in enumerate(polygon):
+        q = polygon[(i + 1) % len(polygon)]
+        dp, dq = float(n @ p) + c, float(n @ q) + c
+        if dp >= 0:
+            out.append(p)
+        if (dp >= 0) != (dq >= 0):
+            out.append(p + (q - p) * (dp / (dp - dq)))
+    return out
+
+
+def _seen_z_range(m: Mesh, rig: StereoRig) -> tuple[float, float] | None:
+    """The depth range of the part of ``m`` either view can see (inside either pyramid), from
+    its triangles that leave ``[near, far]`` clipped to each view's side planes; None if that
+    part is empty (the rest of ``m`` lies within ``[near, far]``)."""
+    v = m.vertices[:, :3].astype(np.float64)
+    tri = v[m.faces]
+    z = tri[..., 2]
+    leaving = tri[np.any((z < rig.near) | (z > rig.far), axis=1)]
+    planes = _frustum_planes(rig)
+    lo, hi = np.inf, -np.inf
+    for t in leaving:
+        for eye in (planes[:4], planes[4:]):
+            poly = [t[0], t[1], t[2]]
+            for n, c in eye:
+                poly = _clip(poly, n, c)
+                if not poly:
+                    break
+            if poly:
+                zs = [p[2] for p in poly]
+                lo, hi = min(lo, *zs), max(hi, *zs)
+    return None if lo > hi else (lo, hi)
 
 
 def check_depth_range(meshes: Sequence[Mesh], rig: StereoRig) -> None:
-    """Raise :class:`DepthRangeError` if a mesh leaves ``(0, inf)`` or ``[near, far]``."""
+    """Raise :class:`DepthRangeError` if a mesh leaves ``(0, inf)`` or ``[near, far]`` where
+    either view sees it.
+
+    A mesh within ``[near, far]`` passes at once. An open one that leaves it (a room's ceiling
+    behind a pitched rig) is clipped to the two views' pyramids (their side planes): only the part a view
+    can see must lie within ``[near, far]``; what no view sees is never drawn, and GL's near and
+    far clipping removes no visible surface, so the ground truth is that of the whole scene. A
+    closed mesh (back faces culled) must lie wholly within the range, and a mesh wholly outside
+    it fails even unseen (behind the cameras: a misplaced object).
+    """
     for m in meshes:
-        if m.zmin <= 0:
+        if m.zmin >= rig.near and m.zmax <= rig.far:
+            continue
+        # a closed mesh must lie wholly in range: its back faces are culled, which is exact only
+        # with both cameras outside it (docs/ground-truth.md)
+        seen = (m.zmin, m.zmax) if m.closed else _seen_z_range(m, rig)
+        if seen is None:
+            z = m.vertices[:, 2]
+            if np.any((z >= rig.near) & (z <= rig.far)):
+                continue  # what leaves the range is out of view, the rest within it
+            seen = (m.zmin, m.zmax)  # wholly out of range (and of view): a misplaced object
+        if seen[0] <= 0:
             raise DepthRangeError(
-                f"object {m.name!r} reaches z={m.zmin:.4g} <= 0, behind the left camera "
+                f"object {m.name!r} reaches z={seen[0]:.4g} <= 0 in view, behind the left camera "
                 f"(world frame = left camera, z forward); move it in front (z > near={rig.near})"
             )
-        if m.zmin < rig.near or m.zmax > rig.far:
+        if seen[0] < rig.near or seen[1] > rig.far:
             raise DepthRangeError(
-                f"object {m.name!r} spans z in [{m.zmin:.4g}, {m.zmax:.4g}], outside the rig's "
-                f"[near, far] = [{rig.near}, {rig.far}]; move the object or change the rig's "
-                "near/far"
+                f"object {m.name!r} spans z in [{seen[0]:.4g}, {seen[1]:.4g}] in view, outside "
+                f"the rig's [near, far] = [{rig.near}, {rig.far}]; move the object or change the "
+                "rig's near/far"
             )

@@ -16,7 +16,7 @@ from stereoforge.schema import Key
 from synth.camera.lens import F_SCALE_RANGE, MAX_ROTATION_DEG
 
 __all__ = ["SCHEMA", "EXAMPLES", "PER_OBJECT_KEYS", "DIST_KINDS", "DIST_SECTIONS", "DIST_FORMS",
-           "DISTORTION_KEYS", "IDEAL_RIG_KEYS", "GROUND_TRUTH_KINDS", "MAX_SEED",
+           "DISTORTION_KEYS", "IDEAL_RIG_KEYS", "POSE_RIG_KEYS", "GROUND_TRUTH_KINDS", "MAX_SEED",
            "SCENE_TEXTURES", "OCCLUDER_KINDS", "OBJECT_TEXTURES", "IMAGE_DEFLATES",
            "allowed_values"]
 
@@ -39,6 +39,8 @@ DISTORTION_KEYS = ("k1", "k2", "p1", "p2", "k3")
 #: The ``[rig]`` keys of the ideal rig (always written by
 #: :meth:`synth.dataset.config.parse.DatasetConfig.to_dict`).
 IDEAL_RIG_KEYS = ("width", "height", "fx", "baseline", "near", "far")
+#: ``[rig]`` keys of the rig's pose in its layout (:mod:`scenes.posing`), not of its cameras.
+POSE_RIG_KEYS = ("camera_height", "pitch")
 # synth.write.extra_ground_truth.GROUND_TRUTH (not imported: it loads the writers; a test checks they
 # agree)
 GROUND_TRUTH_KINDS = ("depth", "normals", "instance", "semantic", "occlusion_right")
@@ -102,6 +104,11 @@ SCHEMA: Mapping[str, Mapping[str, Key]] = MappingProxyType({
         "f_number": Key("float", None, lo=0.5, hi=64.0, doc="defocus: f-number"),
         "pixel_pitch_um": Key("float", None, lo=0.1, hi=100.0,
                               doc="defocus: pixel pitch, micrometres (default 3)"),
+        # the rig's pose in its layout (scenes.posing); unset = the layout's own, today's bytes
+        "camera_height": Key("float", None, lo=0.05, hi=100.0,
+                             doc="cameras above the base's floor (room, outdoor), metres"),
+        "pitch": Key("float", None, lo=-45.0, hi=45.0,
+                     doc="rig turned about its baseline, degrees; positive looks down"),
     },
     "scene": {
         "base": Key("str", "fronto_plane", choices=tuple(PRESETS), doc="base preset"),

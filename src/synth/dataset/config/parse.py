@@ -35,6 +35,7 @@ from synth.dataset.config.keys import (
     EXAMPLES,
     GROUND_TRUTH_KINDS,
     IDEAL_RIG_KEYS,
+    POSE_RIG_KEYS,
     PER_OBJECT_KEYS,
     SCHEMA,
     allowed_values,
@@ -42,7 +43,7 @@ from synth.dataset.config.keys import (
 from synth.camera.rig import StereoRig
 from synth.dataset.config.dists import Dist
 from synth.dataset.config.mix import load_parts
-from synth.dataset.config.rig_draws import RIG_DRAW_KEYS, nominal
+from synth.dataset.config.rig_draws import RIG_DRAW_KEYS, nominal, pose_problem
 
 __all__ = [
     "ConfigError",
@@ -301,8 +302,8 @@ class _Parser:
         if "mix" in data:
             return self.mix(data, top, name)
         raw_rig = self.section(data.get("rig", {}), "rig")
-        rig_draws = {k: self.dist("rig", k, raw_rig[k]) for k in RIG_DRAW_KEYS
-                     if isinstance(raw_rig.get(k), dict)}
+        rig_draws = {k: self.dist("rig", k, raw_rig[k]) for k in RIG_DRAW_KEYS if isinstance(
+            raw_rig.get(k), dict) or (k in POSE_RIG_KEYS and k in raw_rig)}  # pose: always
         rig_kw = {k: nominal(rig_draws[k]) if k in rig_draws else self.scalar("rig", k, v)
                   for k, v in raw_rig.items()}
         rig_kw = {k: rig_kw.get(k, SCHEMA["rig"][k].default) for k in SCHEMA["rig"]}
@@ -318,7 +319,7 @@ class _Parser:
                             baseline=rig_kw["baseline"], near=rig_kw["near"],
                             far=rig_kw["far"], errors=_rig_errors(rig_kw))
         except StereoforgeError as exc:
-            first = next((k for k in SCHEMA["rig"] if k not in IDEAL_RIG_KEYS
+            first = next((k for k in SCHEMA["rig"] if k not in (*IDEAL_RIG_KEYS, *POSE_RIG_KEYS)
                           and rig_kw[k] is not None), "width")
             raise ConfigError(f"{self.toml.where('rig', first)}: [rig] {exc}") from None
         sections = {}
@@ -340,6 +341,8 @@ class _Parser:
             raise self.fail("scene", "edge_density", "a textured surface",
                             "texture = 'constant', which has none",
                             fix="choose another texture or remove edge_density")
+        if (problem := pose_problem(rig_draws, scene["base"])) is not None:
+            raise self.fail("rig", "camera_height", *problem[:2], fix=problem[2])
         self.per_object(scene)
         self.meshes(scene)
         if "occluder_each" in scene and scene["occluder_each"].kind != "fixed":
@@ -360,7 +363,8 @@ class _Parser:
 
 def _rig_errors(kw: Mapping[str, Any]) -> RigErrors | None:
     """The camera errors of the ``[rig]`` keys (``None`` when none is set: the ideal rig)."""
-    if all(kw[k] is None for k in SCHEMA["rig"] if k not in (*IDEAL_RIG_KEYS, "fy")):
+    if all(kw[k] is None for k in SCHEMA["rig"]
+           if k not in (*IDEAL_RIG_KEYS, *POSE_RIG_KEYS, "fy")):
         return None
     if (kw["focus_distance"] is None) != (kw["f_number"] is None):
         raise ConfigError("focus_distance and f_number: expected both (defocus) or neither, "

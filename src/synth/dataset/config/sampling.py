@@ -33,6 +33,7 @@ from scenes import (
 )
 from scenes.assets import list_mesh_folder, load_mesh_file
 from scenes.materials import turn_lights
+from scenes.posing import posed
 from synth.camera.rig import StereoRig
 from synth.dataset.config.parse import PER_OBJECT_KEYS, DatasetConfig
 from synth.dataset.config.mix import STREAM_MIX
@@ -340,12 +341,15 @@ def draw_sample(config: DatasetConfig, index: int, *, attempt: int = 0) -> Sampl
     phot_draw = {k: d.sample(rng) for k, d in config.photometric.items()}
     preset_seed = int(stream(seed, _STREAM_PRESET).integers(0, 2**63))
     scene = get_preset(str(scene_draw["base"]), seed=preset_seed)
+    if "pitch" in rig_values or "camera_height" in rig_values:  # the rig's pose in the layout
+        scene = posed(scene, camera_height=rig_values.get("camera_height"),
+                      pitch=rig_values.get("pitch"))
     kind = None if scene_draw["texture"] == "preset" else str(scene_draw["texture"])
     extra = _occluders(scene_draw, config, rig, stream(seed, _STREAM_OCCLUDERS), kind)
     if extra:
         scene = SceneSpec(scene.name, (*extra, *scene.objects), light=scene.light,
                           background=scene.background, seed=scene.seed,
-                          description=scene.description)
+                          description=scene.description, sky=scene.sky)
     scene = retexture(scene, fx=rig.fx, frequency_px=scene_draw.get("frequency_px"),
                       contrast=scene_draw.get("contrast"), kind=kind)
     if "object_texture" in config.scene:
