@@ -172,3 +172,48 @@ def test_outdoor_layout_has_a_sky_and_no_backdrop():
         assert spec.sky is not None
         assert max(o.pose.translation[2] for o in spec.objects) < 95.0
     assert outdoor(0).sky != outdoor(1).sky
+
+
+SKY_CONFIG = """\
+seed = 2
+[rig]
+width = 64
+height = 40
+[scene]
+base = "outdoor"
+"""
+
+
+@pytest.mark.slow
+def test_a_sky_dataset_holds_its_mask_and_stats_in_folders_and_shards(tmp_path):
+    """Middlebury folders get mask0sky.png and the stats its sky_fraction; WebDataset shards the
+    same bytes as the ``sky`` field."""
+    import json
+    import tarfile
+
+    from synth.dataset.config.parse import loads_config
+    from synth.dataset.run import run_dataset
+
+    cfg = loads_config(SKY_CONFIG)
+    run_dataset(cfg, tmp_path / "mb", count=2, progress=False)
+    run_dataset(cfg, tmp_path / "wds", count=2, progress=False, fmt="webdataset")
+    folder = tmp_path / "mb" / "MiddEval3" / "trainingF" / "000001"
+    sky = read_image(folder / "mask0sky.png")
+    stats = json.loads((folder / "sample.json").read_text())["stats"]
+    assert stats["sky_fraction"] == pytest.approx(np.count_nonzero(sky) / sky.size, abs=1e-6)
+    assert 0 < stats["sky_fraction"] < 1
+    assert np.all(read_pfm(folder / "disp0GT.pfm")[sky > 0] == 0)
+    with tarfile.open(next((tmp_path / "wds").glob("shard-*.tar"))) as tar:
+        member = tar.extractfile("000001.sky.png").read()
+    assert member == (folder / "mask0sky.png").read_bytes()
+    # the statistics table's tool reads the same figures back (docs/datasets.md)
+    spec = importlib.util.spec_from_file_location(
+        "_config_stats", Path(__file__).parents[2] / "tools" / "config_stats.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    got = tool.stats(tmp_path / "mb")
+    fractions = [json.loads((tmp_path / "mb" / "MiddEval3" / "trainingF" / f"{i:06d}" /
+                             "sample.json").read_text())["stats"]["sky_fraction"] for i in (0, 1)]
+    assert got["samples"] == 2 and got["sky"] == pytest.approx(np.mean(fractions))
+    assert got["low"] == 0.0 and got["invalid"] == 0.0
+    assert tool.row(got).startswith("| `mb` | 2 |")

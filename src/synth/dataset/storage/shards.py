@@ -13,8 +13,8 @@ Layout::
 Each sample is the Middlebury scene folder renamed to WebDataset fields (key ``NNNNNN``, the
 sample index): ``left.png`` (im0), ``right.png`` (im1), ``disp.pfm`` (disp0GT), ``disp_right.pfm``
 (disp1GT), ``mask.png`` (mask0nocc: 255 visible in both views, 128 occluded, 0 no ground
-truth), ``calib.txt``, ``scene.json``, ``sample.json``; the member bytes are the Middlebury files'
-bytes. Shards fill in index order: a shard is closed when its members reach ``shard_size`` bytes
+truth), ``sky.png`` (mask0sky, scenes with a sky only), ``calib.txt``, ``scene.json``,
+``sample.json``; the member bytes are the Middlebury files' bytes. Shards fill in index order: a shard is closed when its members reach ``shard_size`` bytes
 (so each is a little over it, the last one under it), written as ``.shard-K.tar.tmp`` and renamed
 when complete, then listed in ``shards.json`` with its size and SHA-256 (the shard's completion
 record; ``stereoforge dataset --verify`` checks it); only then are its staged samples and their
@@ -60,7 +60,7 @@ FIELDS = (("im0.png", "left.png"), ("im1.png", "right.png"), ("disp0GT.pfm", "di
           ("disp1GT.pfm", "disp_right.pfm"), ("mask0nocc.png", "mask.png"),
           ("depth0.pfm", "depth.pfm"), ("normals0.pfm", "normals.pfm"),
           ("instance0.png", "instance.png"), ("semantic0.png", "semantic.png"),
-          ("mask1nocc.png", "mask_right.png"),
+          ("mask1nocc.png", "mask_right.png"), ("mask0sky.png", "sky.png"),
           ("calib.txt", "calib.txt"), ("scene.json", "scene.json"), ("sample.json", "sample.json"))
 #: The index of the complete shards, at the dataset's root.
 INDEX = "shards.json"
