@@ -66,3 +66,41 @@ def test_middlebury_like_meets_the_realism_target(tmp_path, middlebury_dir):
     result = bench_realism(config="middlebury-like", count=20, data=middlebury_dir,
                            out=tmp_path, workers=2)
     assert result.passed, format_verdict(result)
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_bench_realism_ranks_on_real_sets_outside_the_lab(tmp_path, dev_data_dir):
+    """--real adds a set scored and ranked like the references; --matchers replaces the three;
+    the agreement rows say each set's best matcher and where ours ranks there."""
+    from synth.jobs.bench.realism import spearman
+
+    result = bench_realism(config="planes", count=2, data=None, out=tmp_path,
+                           matchers=["ct:5", "sgbm:5", "bm:9"],
+                           real=[f"eth3d:{dev_data_dir / 'eth3d'}"])
+    sets = [r["set"] for r in result.samples]
+    assert sets.count("eth3d") == 7 and sets.count("planes") == 2
+    labels = ["ct:5", "SGBM-5", "bm:9"]
+    eth3d = next(r for r in result.summary if r["set"] == "eth3d")
+    for m in labels:
+        rows = [r[m] for r in result.samples if r["set"] == "eth3d"]
+        assert all(0.0 <= v <= 100.0 for v in rows)
+        assert eth3d[m] == pytest.approx(np.mean(rows), abs=0.01)
+    ranking = sorted(labels, key=lambda m: eth3d[m])
+    (row,) = [a for a in result.agreement if a["set"] == "eth3d"]
+    best = result.ranking_synthetic[0]
+    assert row["best"] == ranking[0]
+    assert row[f"rank of {best}"] == ranking.index(best) + 1
+    assert row["spearman"] == spearman(result.ranking_synthetic, ranking)
+    assert "eth3d: best" in format_verdict(result)
+
+
+def test_bench_realism_refuses_bad_matchers_and_specs_before_rendering(tmp_path):
+    for args, word in ((["--matchers", "ct:9"], "at least two"),
+                       (["--matchers", "ct:9,nope"], "nope"),
+                       (["--real", f"eth3d:{tmp_path / 'absent'}"], "absent")):
+        r = CliRunner().invoke(main, ["bench", "realism", "--config", "planes", "--count", "1",
+                                      "--out", str(tmp_path / "b"), *args])
+        assert r.exit_code == 2, r.output
+        assert "Error:" in r.output and word in r.output and "Traceback" not in r.output
+        assert not (tmp_path / "b" / "pairs").exists()

@@ -167,9 +167,15 @@ def bench_dataset_cmd(out, count, configs, workers_text, size_text, formats_text
 @click.option("--workers", default=1, show_default=True, type=click.IntRange(min=1))
 @click.option("--tolerance", default=5.0, show_default=True, type=click.FloatRange(min=0),
               help="Points of bad-3 the synthetic mean may differ from the real one.")
+@click.option("--matchers", default=None,
+              help="Comma-separated MATCHER strings compared (default ct:9,ct:21,sgbm:5).")
+@click.option("--real", "real", multiple=True, metavar="SPEC",
+              help="A real set scored and ranked too (repeatable; validate --real's SPECs: "
+                   "eth3d:DIR, drivingstereo:DIR, kitti:DIR, ...).")
 @backend_option
-def bench_realism_cmd(out, config, count, data, workers, tolerance, backend) -> None:
-    """bad-3 of CT-9, CT-21 and SGBM-5 on synthetic pairs against the real scenes."""
+def bench_realism_cmd(out, config, count, data, workers, tolerance, matchers, real,
+                      backend) -> None:
+    """bad-3 of CT-9, CT-21 and SGBM-5 (or --matchers) on synthetic pairs against real scenes."""
     import os
 
     from synth.jobs.bench.realism import bench_realism, format_verdict
@@ -182,9 +188,13 @@ def bench_realism_cmd(out, config, count, data, workers, tolerance, backend) -> 
     result = bench_realism(config=config, count=count,
                            data=folder if (folder / "third").is_dir() else None,
                            out=Path(out), workers=workers, backend=backend, tolerance=tolerance,
-                           log=lambda m: click.echo(m, err=True))
+                           matchers=None if matchers is None else [
+                               m for m in matchers.split(",") if m.strip()],
+                           real=real, log=lambda m: click.echo(m, err=True))
     click.echo(write_table(result.summary, Path(out), "realism"))
     write_table(result.samples, Path(out), "realism-samples")
+    if result.agreement:
+        click.echo(write_table(result.agreement, Path(out), "realism-agreement"))
     click.echo(format_verdict(result, tolerance=tolerance))
 
 
