@@ -31,6 +31,8 @@ def _ear_clip(poly: np.ndarray) -> np.ndarray:
                 tris.append((a, b, c))
                 idx.pop(k)
                 break
+        else:  # no ear: the outline crosses itself (a simple polygon always has two)
+            raise ValueError(f"extrusion outline is not a simple polygon: {poly.tolist()}")
     tris.append(tuple(idx))
     return np.array(tris, np.int64)
 
@@ -51,6 +53,8 @@ def _letter(rng: np.random.Generator) -> np.ndarray:
         c0, c1 = w / 2 - a / 2, w / 2 + a / 2
         pts = [(c0, 0), (c1, 0), (c1, h - a), (w, h - a), (w, h), (0, h), (0, h - a), (c0, h - a)]
     else:
+        if w - a <= a:  # the two bars would overlap (the outline crossing itself): thinner bars
+            a = 0.4 * w
         pts = [(0, 0), (w, 0), (w, h), (w - a, h), (w - a, a), (a, a), (a, h), (0, h)]
     poly = np.array(pts, float)
     return poly - (poly.min(axis=0) + poly.max(axis=0)) / 2
