@@ -250,7 +250,7 @@ def test_a_drawn_baseline_and_focal_length_vary_per_sample_and_change_nothing_el
     assert resized(drawn, 128, 96).to_dict()["rig"]["fx"] == {"loguniform": [80.0, 160.0]}
 
 
-def test_only_baseline_and_fx_may_be_drawn():
+def test_only_baseline_fx_pitch_and_camera_height_may_be_drawn():
     with pytest.raises(ConfigError, match="rig.near.*fixed value"):
         loads_config(RIG.format(rig="near = {choice = [0.1, 0.2]}"))
     with pytest.raises(ConfigError, match=r"rig.baseline.uniform\[0\].*\(0.0, 100.0\]"):
