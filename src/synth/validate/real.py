@@ -48,7 +48,7 @@ from stereoforge.errors import ParameterError
 if TYPE_CHECKING:
     from synth.formats.base import SceneRef
 
-__all__ = ["AXIS", "RealSpec", "resolve_real", "write_real_folder"]
+__all__ = ["AXIS", "RealSpec", "resolve_real", "set_names", "write_real_folder"]
 
 #: The ``axis`` of real scenes' rows.
 AXIS = "real"
@@ -124,6 +124,24 @@ def _fingerprint(spec: RealSpec) -> str:
         digest.update(f"{array.shape}{array.dtype}".encode())
         digest.update(np.ascontiguousarray(array).tobytes())
     return digest.hexdigest()
+
+
+def set_names(specs: Sequence[str]) -> list[str]:
+    """The name of each ``--real`` SPEC's set in results: its scheme, ``-2``, ``-3`` ... for a
+    second, third SPEC of one scheme.
+
+    Examples
+    --------
+    >>> set_names(["eth3d:a", "kitti:b", "eth3d:c"])
+    ['eth3d', 'kitti', 'eth3d-2']
+    """
+    names: list[str] = []
+    out = []
+    for spec in specs:
+        scheme = str(spec).partition(":")[0]
+        out.append(scheme if scheme not in names else f"{scheme}-{names.count(scheme) + 1}")
+        names.append(scheme)
+    return out
 
 
 def resolve_real(specs: Sequence[str]) -> list[RealSpec]:

@@ -104,6 +104,7 @@ def _real_rows(data: Path | None, matchers: Sequence[tuple[str, Callable]],
                real: Sequence[tuple[str, list]]) -> list[dict]:
     from synth.formats import resolve_spec
     from synth.validate.pairs import max_disparity_for
+    from synth.validate.real import set_names
 
     rows = []
     if data is not None:
@@ -116,11 +117,7 @@ def _real_rows(data: Path | None, matchers: Sequence[tuple[str, Callable]],
     rows.append({"set": "motorcycle-2014", "sample": "Motorcycle", "max_disparity":
                  _MOTORCYCLE_RANGE, **_bad3(matchers, s.left, s.right, s.disp_left,
                                             _MOTORCYCLE_RANGE)})
-    names: list[str] = []
-    for spec, scenes in real:  # one set per SPEC, named by its scheme (eth3d, eth3d-2, ...)
-        scheme = str(spec).partition(":")[0]
-        name = scheme if scheme not in names else f"{scheme}-{names.count(scheme) + 1}"
-        names.append(scheme)
+    for name, (_, scenes) in zip(set_names([spec for spec, _ in real]), real):
         for scene in scenes:
             left, right, gt, _, _ = scene.load()
             search = max_disparity_for(gt, gt.shape[1])

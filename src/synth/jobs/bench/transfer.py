@@ -105,13 +105,10 @@ def _real_sets(specs: Sequence[str]) -> list[dict]:
     (:data:`synth.formats.METRICS`); the search range as ``validate`` takes it."""
     from synth.formats import METRICS, get_layout
     from synth.validate.pairs import max_disparity_for
-    from synth.validate.real import resolve_real
+    from synth.validate.real import resolve_real, set_names
 
-    out, names = [], []
-    for spec in specs:
-        scheme = str(spec).partition(":")[0]
-        name = scheme if scheme not in names else f"{scheme}-{names.count(scheme) + 1}"
-        names.append(scheme)
+    out = []
+    for name, spec in zip(set_names(specs), specs):
         for scene in resolve_real([spec]):
             left, right, gt, mask, _ = scene.load()
             out.append({"set": name, "name": scene.ref.name, "scene": scene.scene, "left": left,
